@@ -1,0 +1,153 @@
+"""Compass-gait walker (Goswami, Thuilot, Espiau 1998) and its limit, the
+simplest walking model (Garcia, Chatterjee, Ruina, Coleman 1998).
+
+Two rigid straight legs of length ``l = a + b`` hinged at the hip, a point mass
+``m_h`` at the hip and a point mass ``m`` on each leg a distance ``a`` above the
+foot (``b`` below the hip); point feet; passive, on a slope ``gamma``.
+
+One continuous phase (single support), ended by heel-strike, a perfectly
+inelastic impact of the swing foot after which the trailing foot leaves the
+ground, then the legs swap labels. The swing foot's passage through the ground
+near mid-stance is ignored, as in both papers: the heel-strike guard opens only
+once the stance leg has passed the slope normal.
+
+Section: just after heel-strike (after the swap), stance foot at the origin.
+Independent coordinates ``v = (alpha_1, alpha_1_dot, alpha_2_dot)``: the stance
+leg angle and both leg angular velocities (``alpha_2 = -alpha_1``, both feet on
+the ground; the hip velocity follows from the stance contact).
+"""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+
+from jaxwalk.parameters import ParamSpec, nonnegative, positive
+from jaxwalk.status import Status
+from jaxwalk.walker import Transition, Walker
+
+# Guard indices.
+HEEL_STRIKE, FALL, STALL, SWING_RANGE = range(4)
+
+#: Hip height (fraction of leg length, normal to the slope) below which the walker has fallen.
+FALL_HEIGHT = 0.5
+#: Largest swing-leg angle magnitude (rad) before we call it a fall.
+SWING_LIMIT = 1.5
+
+
+class CompassWalker(Walker):
+    name = "compass"
+    description = "compass-gait walker, Goswami, Thuilot & Espiau (1998)"
+    parameters = (
+        ParamSpec("gamma", 0.0523598775598, "rad", "slope angle (downhill positive)", lower=-0.5, upper=0.5),
+        positive("m", 5.0, "kg", "leg mass"),
+        positive("m_h", 10.0, "kg", "hip mass"),
+        nonnegative("a", 0.5, "m", "distance from foot to leg mass"),
+        positive("b", 0.5, "m", "distance from leg mass to hip"),
+        positive("g", 9.81, "m s-2", "gravitational acceleration"),
+    )
+    coordinates = ("x_h", "y_h", "alpha_1", "alpha_2")
+    phases = ("single_support",)
+    guards = ("heel_strike", "fall", "stall", "swing_range")
+    context = ("x_stance", "ground_next")
+    section_names = ("alpha_1", "alpha_1_dot", "alpha_2_dot")
+    n_constraints = 4  # stance foot (x, y), swing foot (x, y)
+
+    # The mass model; the simplest walker overrides this one method.
+    def mass_model(self, params) -> tuple:
+        """``(m, m_h, a, b, g)`` as scalars."""
+        return params["m"], params["m_h"], params["a"], params["b"], params["g"]
+
+    def leg_length(self, params):
+        _, _, a, b, _ = self.mass_model(params)
+        return a + b
+
+    def time_scale(self, params):
+        _, _, a, b, g = self.mass_model(params)
+        return jnp.sqrt((a + b) / g)
+
+    def gravity(self, params):
+        *_, g = self.mass_model(params)
+        gamma = params["gamma"]
+        return g * jnp.stack([jnp.sin(gamma), -jnp.cos(gamma)])
+
+    # ------------------------------------------------------------ kinematics
+    def feet(self, q, params):
+        """``(2, 2)`` positions of foot 1 (stance) and foot 2 (swing)."""
+        l = self.leg_length(params)
+        hip = q[:2]
+        return jnp.stack([hip + l * jnp.stack([jnp.sin(a), -jnp.cos(a)]) for a in (q[2], q[3])])
+
+    def points(self, q, params):
+        _, _, _, b, _ = self.mass_model(params)
+        hip = q[:2]
+        legs = [hip + b * jnp.stack([jnp.sin(a), -jnp.cos(a)]) for a in (q[2], q[3])]
+        return jnp.stack([hip, *legs])
+
+    def masses(self, params):
+        m, m_h, *_ = self.mass_model(params)
+        return jnp.stack([m_h, m, m])
+
+    def constraints(self, q, params, ctx):
+        feet = self.feet(q, params)
+        return jnp.stack(
+            # The swing row's x value is never used: it only enters impacts, which
+            # need its Jacobian, not its value.
+            [feet[0, 0] - ctx[0], feet[0, 1], feet[1, 0], feet[1, 1] - ctx[1]]
+        )
+
+    def constraint_mask(self, phase, params):
+        return jnp.array([1.0, 1.0, 0.0, 0.0])
+
+    # ------------------------------------------------------------ events
+    def guard_values(self, t, y, params, phase, ctx):
+        q, qd = self.split(y)
+        l = self.leg_length(params)
+        feet = self.feet(q, params)
+        a1, a2 = q[2], q[3]
+        swing_height = feet[1, 1] - ctx[1]
+        # Open only after the stance leg passed the normal: there the swing foot is
+        # at height l (1 - cos a2) + drop >= 0, so opening is never a crossing.
+        heel = jnp.where(a1 < 0.0, swing_height, 1.0)
+        fall = q[1] / l - FALL_HEIGHT
+        stall = jnp.where(a1 > 0.0, -qd[2], 1.0)
+        swing = SWING_LIMIT - jnp.abs(a2)
+        return jnp.stack([heel, fall, stall, swing])
+
+    def on_event(self, guard, t, y, params, phase, ctx):
+        q, _ = self.split(y)
+        feet = self.feet(q, params)
+        # Heel-strike: the swing foot becomes the pivot, the trailing foot lifts off.
+        impact_ctx = ctx
+        y_plus, _ = self.apply_impact(y, params, impact_ctx, jnp.array([0.0, 0.0, 1.0, 1.0]))
+        q_p, qd_p = self.split(y_plus)
+        shift = feet[1, 0]
+        swapped_q = jnp.stack([q_p[0] - shift, q_p[1] - ctx[1], q_p[3], q_p[2]])
+        swapped_qd = jnp.stack([qd_p[0], qd_p[1], qd_p[3], qd_p[2]])
+        y_next = jnp.concatenate([swapped_q, swapped_qd])
+        ahead = feet[1, 0] > feet[0, 0]
+        heel_status = jnp.where(ahead, Status.IN_PROGRESS, Status.SCUFFING)
+        status = jnp.select(
+            [guard == HEEL_STRIKE, guard == STALL],
+            [heel_status, Status.STALLED],
+            Status.FELL,
+        ).astype(jnp.int8)
+        done = (guard == HEEL_STRIKE) & ahead
+        y_out = jnp.where(done, y_next, y)
+        ctx_out = jnp.where(done, jnp.zeros_like(ctx), ctx)
+        return Transition(phase, y_out, ctx_out, status, done, jnp.where(done, shift, 0.0))
+
+    # ------------------------------------------------------------ section
+    def section_to_state(self, v, params):
+        l = self.leg_length(params)
+        a1, a1d, a2d = v[0], v[1], v[2]
+        q = jnp.stack([-l * jnp.sin(a1), l * jnp.cos(a1), a1, -a1])
+        qd = jnp.stack([-l * jnp.cos(a1) * a1d, -l * jnp.sin(a1) * a1d, a1d, a2d])
+        return jnp.concatenate([q, qd]), jnp.asarray(0, jnp.int32), jnp.zeros(len(self.context), v.dtype)
+
+    def state_to_section(self, y, params, ctx):
+        return jnp.stack([y[2], y[6], y[7]])
+
+    def initial_guess(self, params):
+        # A gait of the default parameters, scaled to the model's time unit.
+        omega = 1.0 / self.time_scale(params)
+        return jnp.stack([jnp.asarray(0.22), -1.1 * omega, -0.38 * omega])

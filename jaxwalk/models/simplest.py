@@ -1,0 +1,41 @@
+"""The simplest walking model (Garcia, Chatterjee, Ruina, Coleman 1998).
+
+The compass walker with all its mass at the hip (``M = 1``) and infinitesimal
+point feet (mass ``beta -> 0``), legs of length 1, ``g = 1``: its only parameter is
+the slope ``gamma``. Garcia's equations are the ``beta -> 0`` limit of the
+compass walker's; we run the compass walker's own autodiff-derived equations at
+``beta = FOOT_MASS_RATIO``, so results differ from the limit by ``O(beta)``,
+far below every tolerance we test (see ``docs/engine.md``).
+
+Garcia's section (just after heel-strike) uses ``theta`` = stance angle and
+``phi`` = angle between the legs; in ours ``alpha_1 = theta`` and
+``alpha_2 = theta - phi``, so his fixed point ``(theta, theta_dot)`` is our
+``(alpha_1, alpha_1_dot)``.
+"""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+
+from jaxwalk.models.compass import CompassWalker
+from jaxwalk.parameters import ParamSpec
+
+#: Foot-to-hip mass ratio standing in for Garcia's limit beta -> 0.
+FOOT_MASS_RATIO = 1e-12
+
+
+class SimplestWalker(CompassWalker):
+    name = "simplest"
+    description = "simplest walking model, Garcia, Chatterjee, Ruina & Coleman (1998)"
+    parameters = (
+        ParamSpec("gamma", 0.009, "rad", "slope angle (downhill positive)", lower=-0.5, upper=0.5),
+    )
+
+    def mass_model(self, params):
+        one = jnp.ones_like(params["gamma"])
+        # (m, m_h, a, b, g): the feet carry all leg mass, at the leg's end.
+        return FOOT_MASS_RATIO * one, one, 0.0 * one, one, one
+
+    def initial_guess(self, params):
+        # Garcia's gait at gamma = 0.009; alpha_2_dot = theta_dot cos(2 theta).
+        return jnp.array([0.2003, -0.1998, -0.1998 * jnp.cos(0.4006)])

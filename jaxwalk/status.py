@@ -1,0 +1,76 @@
+"""Named outcomes of a step, a gait search or a step-down trial.
+
+Every batched computation in jaxwalk carries an ``int8`` status next to its
+numbers, from the innermost phase loop up to the dataset and the plots: a
+walker that falls, stalls or never finishes its step is data, not a NaN.
+
+The integer values are part of the file format (they are written to datasets
+with CF ``flag_values`` / ``flag_meanings``): append new codes, never renumber.
+"""
+
+from __future__ import annotations
+
+import enum
+
+
+class Status(enum.IntEnum):
+    """Outcome codes. ``OK`` (0) is the only success."""
+
+    OK = 0
+    FELL = 1
+    STALLED = 2
+    TIMEOUT = 3
+    NONFINITE = 4
+    RUNNING = 5
+    SHANK_RELEASING = 6
+    SCUFFING = 7
+    TOO_MANY_EVENTS = 8
+    NO_CONVERGENCE = 9
+    SOLVER_FAILED = 10
+    KNEE_BUCKLED = 11
+    IN_PROGRESS = 127  # internal: a step still running; never written to a dataset
+
+
+#: One sentence per status, used in dataset attributes, docs and plot legends.
+STATUS_MEANINGS: dict[Status, str] = {
+    Status.OK: "periodic gait found (or step completed)",
+    Status.FELL: "fell: a leg angle left its range or the hip dropped too low",
+    Status.STALLED: "stalled: the walker stopped or moved backwards",
+    Status.TIMEOUT: "no event ended a phase before its time limit",
+    Status.NONFINITE: "the state became non-finite (NaN or inf)",
+    Status.RUNNING: "running: a stance contact force turned upward (flight)",
+    Status.SHANK_RELEASING: "shank releasing: heel-strike with the swing knee unlocked",
+    Status.SCUFFING: "serious foot-scuffing: swing foot below ground beyond tolerance",
+    Status.TOO_MANY_EVENTS: "the step never ended: too many events in one step",
+    Status.NO_CONVERGENCE: "Newton's method did not converge to a fixed point",
+    Status.SOLVER_FAILED: "the ODE solver failed (step-size underflow or max steps)",
+    Status.KNEE_BUCKLED: "a locked stance knee would have to pull to stay straight",
+    Status.IN_PROGRESS: "internal: step in progress",
+}
+
+#: Codes that may appear in a dataset, in order.
+DATASET_STATUSES: tuple[Status, ...] = tuple(s for s in Status if s != Status.IN_PROGRESS)
+
+
+def flag_attributes() -> dict[str, object]:
+    """CF-convention attributes for a ``status`` variable.
+
+    Returns ``flag_values`` (list of int) and ``flag_meanings`` (space-separated
+    snake_case names, as CF requires) plus a ``flag_descriptions`` string with
+    the sentences of :data:`STATUS_MEANINGS`.
+    """
+    return {
+        "flag_values": [int(s) for s in DATASET_STATUSES],
+        "flag_meanings": " ".join(s.name.lower() for s in DATASET_STATUSES),
+        "flag_descriptions": "; ".join(
+            f"{int(s)} {s.name.lower()}: {STATUS_MEANINGS[s]}" for s in DATASET_STATUSES
+        ),
+    }
+
+
+def describe(code: int) -> str:
+    """Human-readable name of a status code (``'fell'``, ``'ok'``, ...)."""
+    try:
+        return Status(int(code)).name.lower()
+    except ValueError:
+        return f"unknown({int(code)})"
