@@ -148,6 +148,7 @@ class CompassWalker(Walker):
         return jnp.stack([y[2], y[6], y[7]])
 
     def initial_guess(self, params):
-        # A gait of the default parameters, scaled to the model's time unit.
-        omega = 1.0 / self.time_scale(params)
-        return jnp.stack([jnp.asarray(0.22), -1.1 * omega, -0.38 * omega])
+        # The default parameters' gait (l = 1 m, g = 9.81), rates rescaled to
+        # this config's natural frequency sqrt(g / l).
+        omega = 1.0 / (self.time_scale(params) * jnp.sqrt(9.81))
+        return jnp.stack([0.271 * jnp.ones_like(omega), -1.092 * omega, -0.377 * omega])

@@ -37,5 +37,8 @@ class SimplestWalker(CompassWalker):
         return FOOT_MASS_RATIO * one, one, 0.0 * one, one, one
 
     def initial_guess(self, params):
-        # Garcia's gait at gamma = 0.009; alpha_2_dot = theta_dot cos(2 theta).
-        return jnp.array([0.2003, -0.1998, -0.1998 * jnp.cos(0.4006)])
+        # Garcia's gait at gamma = 0.009 scaled by his small-slope asymptotics
+        # (theta* ~ gamma^(1/3)); alpha_2_dot = theta_dot cos(2 theta) after impact.
+        scale = (jnp.abs(params["gamma"]) / 0.009) ** (1.0 / 3.0)
+        theta, theta_dot = 0.2003 * scale, -0.1998 * scale
+        return jnp.stack([theta, theta_dot, theta_dot * jnp.cos(2.0 * theta)])

@@ -1,0 +1,103 @@
+"""Conservation laws of the autodiff mechanics, on the compass walker.
+
+Energy along the continuous phase; linear and angular momentum balances
+through the heel-strike impact, computed from the point masses directly
+(positions and velocities), not from the mass matrix the engine uses.
+"""
+
+import diffrax
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from jaxwalk.models import get_model
+
+MODEL = get_model("compass")
+PARAMS = MODEL.default_params()
+PHASE = jnp.asarray(0, jnp.int32)
+
+
+def cross(a, b):
+    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+
+
+def start_state():
+    y, _, ctx = MODEL.section_to_state(jnp.array([0.271, -1.092, -0.377]), PARAMS)
+    return y, ctx
+
+
+@pytest.fixture(scope="module")
+def trajectory():
+    y0, ctx = start_state()
+    ts = jnp.linspace(0.0, 0.6, 25)
+    sol = diffrax.diffeqsolve(
+        diffrax.ODETerm(MODEL.vector_field),
+        diffrax.Dopri8(),
+        t0=0.0,
+        t1=0.6,
+        dt0=None,
+        y0=y0,
+        args=(PARAMS, PHASE, ctx),
+        saveat=diffrax.SaveAt(ts=ts),
+        stepsize_controller=diffrax.PIDController(rtol=1e-11, atol=1e-11),
+    )
+    return sol.ys, ctx
+
+
+def test_energy_conserved_along_single_support(trajectory):
+    ys, ctx = trajectory
+    energy = jax.vmap(lambda y: MODEL.energy(y, PARAMS, PHASE, ctx))(ys)
+    scale = float(jnp.max(jnp.abs(energy)))
+    assert float(jnp.max(energy) - jnp.min(energy)) < 1e-9 * scale
+
+
+def test_constraint_residuals_stay_at_integration_accuracy(trajectory):
+    ys, ctx = trajectory
+    residual = jax.vmap(lambda y: MODEL.constraints(y[:4], PARAMS, ctx)[:2])(ys)
+    assert float(jnp.max(jnp.abs(residual))) < 1e-9
+
+
+def test_contact_force_is_compressive(trajectory):
+    ys, ctx = trajectory
+    forces = jax.vmap(lambda y: MODEL.dynamics(y, PARAMS, PHASE, ctx)[1])(ys)
+    assert float(jnp.min(forces[:, 1])) > 0.0  # normal force on the stance foot pushes up
+    assert np.all(np.asarray(forces[:, 2:]) == 0.0)  # inactive constraints carry nothing
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_heel_strike_conserves_momenta_and_loses_energy(seed):
+    """Random asymmetric pre-impact states (stance foot pinned)."""
+    rng = np.random.default_rng(seed)
+    a1, a2 = -rng.uniform(0.1, 0.4), rng.uniform(0.1, 0.4)
+    ad1, ad2 = -rng.uniform(0.5, 2.0), rng.uniform(-2.0, 2.0)
+    l = 1.0
+    q = jnp.array([-l * np.sin(a1), l * np.cos(a1), a1, a2])
+    qd = jnp.array([-l * np.cos(a1) * ad1, -l * np.sin(a1) * ad1, ad1, ad2])
+    y = jnp.concatenate([q, qd])
+    ctx = jnp.zeros(2)
+    y_plus, impulses = MODEL.apply_impact(y, PARAMS, ctx, jnp.array([0.0, 0.0, 1.0, 1.0]))
+    qd_plus = y_plus[4:]
+
+    masses = MODEL.masses(PARAMS)
+    pts = MODEL.points(q, PARAMS)
+    vel = lambda qd_: jax.jvp(lambda q_: MODEL.points(q_, PARAMS), (q,), (qd_,))[1]
+    v_minus, v_plus = vel(qd), vel(qd_plus)
+    contact = MODEL.feet(q, PARAMS)[1]
+    hip = q[:2]
+
+    # New contact point at rest afterwards.
+    foot_velocity = jax.jvp(lambda q_: MODEL.feet(q_, PARAMS)[1], (q,), (qd_plus,))[1]
+    np.testing.assert_allclose(foot_velocity, 0.0, atol=1e-12)
+    # Whole walker, about the new contact point (the only impulse acts there).
+    L = lambda v: jnp.sum(masses * cross(pts - contact, v))
+    np.testing.assert_allclose(L(v_plus), L(v_minus), rtol=1e-12, atol=1e-12)
+    # Trailing leg (old stance, point 1) about the hip: only the hip joint's impulse acts on it.
+    L_leg = lambda v: masses[1] * cross(pts[1] - hip, v[1])
+    np.testing.assert_allclose(L_leg(v_plus), L_leg(v_minus), rtol=1e-12, atol=1e-12)
+    # Linear momentum changes by exactly the contact impulse.
+    dP = jnp.sum(masses[:, None] * (v_plus - v_minus), axis=0)
+    np.testing.assert_allclose(dP, impulses[2:], rtol=1e-12, atol=1e-12)
+    # An inelastic impact loses kinetic energy.
+    T = lambda v: 0.5 * jnp.sum(masses * jnp.sum(v**2, axis=-1))
+    assert float(T(v_plus)) < float(T(v_minus))

@@ -1,0 +1,97 @@
+"""The engine against the published simplest walker (Garcia et al. 1998)."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from jaxwalk.gait import find_gait, step_jacobian
+from jaxwalk.grid import analyse_grid
+from jaxwalk.models import get_model
+from jaxwalk.step import step_map
+
+# Garcia, Chatterjee, Ruina, Coleman (1998), section just after heel-strike.
+GARCIA_GAMMA = 0.009
+GARCIA_THETA = 0.2003109005
+GARCIA_THETA_DOT = -0.1998324730
+GARCIA_STABILITY_LIMIT = 0.0151
+
+MODEL = get_model("simplest")
+
+
+@pytest.fixture(scope="module")
+def garcia_gait():
+    params = {"gamma": jnp.asarray(GARCIA_GAMMA)}
+    gait = jax.jit(lambda p: find_gait(MODEL, p, MODEL.initial_guess(p)))(params)
+    return params, gait
+
+
+def test_fixed_point_matches_garcia(garcia_gait):
+    _, gait = garcia_gait
+    assert int(gait.status) == 0
+    np.testing.assert_allclose(gait.v[0], GARCIA_THETA, atol=1e-8)
+    np.testing.assert_allclose(gait.v[1], GARCIA_THETA_DOT, atol=1e-8)
+    # Garcia's impact law: swing rate after heel-strike is theta_dot cos(2 theta).
+    np.testing.assert_allclose(gait.v[2], GARCIA_THETA_DOT * np.cos(2 * GARCIA_THETA), atol=1e-8)
+
+
+def test_fixed_point_is_stable_with_garcia_spectrum(garcia_gait):
+    _, gait = garcia_gait
+    # Two eigenvalues carry the dynamics; the third is the beta -> 0 direction (~0).
+    assert 0.5 < float(gait.lambda_max) < 0.7
+    assert abs(complex(gait.eigenvalues[2])) < 1e-6
+    assert abs(complex(gait.eigenvalues[0]).imag) > 0.1  # a complex pair
+
+
+def test_jacobian_matches_central_differences(garcia_gait):
+    params, gait = garcia_gait
+    v = gait.v
+    step = jax.jit(lambda v_: step_map(MODEL, v_, params)[0])
+    jac = np.asarray(jax.jit(lambda v_: step_jacobian(MODEL, v_, params))(v))
+    h = 1e-5
+    fd = np.stack([(np.asarray(step(v + h * e)) - np.asarray(step(v - h * e))) / (2 * h) for e in np.eye(3)], axis=1)
+    np.testing.assert_allclose(jac, fd, rtol=1e-5, atol=1e-6)
+    # Newton reports the Jacobian at the fixed point it returns.
+    np.testing.assert_allclose(np.asarray(gait.jacobian), jac, atol=1e-12)
+
+
+def test_continuation_finds_garcia_stability_limit():
+    """Continuation follows the period-one gait past where it turns unstable."""
+    gammas = np.linspace(0.0125, 0.0165, 9)
+    out = analyse_grid(MODEL, {}, {"gamma": gammas}, continuation_axis="gamma")
+    assert np.all(out["status"] == 0)
+    lam = out["lambda_max"]
+    assert np.all(np.diff(lam[3:]) > 0)  # rising through 1 past the Hopf-like loss of stability
+    k = int(np.argmax(lam > 1.0))
+    critical = np.interp(1.0, lam[k - 1 : k + 1], gammas[k - 1 : k + 1])
+    assert abs(critical - GARCIA_STABILITY_LIMIT) < 2e-4
+    # At 0.009 the continuation result equals the direct one.
+    assert out["newton_iterations"].max() <= 8
+
+
+def test_vmap_equals_single_runs(garcia_gait):
+    """The batched step map equals single calls to round-off; gait searches agree
+    to the step map's integration noise (~1e-10 in v; J then moves by
+    |d2f/dv2| * 1e-10 ~ 1e-7, the map being strongly curved near the separatrix)."""
+    params, gait = garcia_gait
+    gammas = np.array([0.006, 0.009, 0.012])
+    vs = np.stack([gait.v, gait.v * 0.98, gait.v * 1.02])
+    single = jax.jit(lambda v, p: step_map(MODEL, v, p)[0])
+    batched_map = jax.jit(jax.vmap(lambda v, p: step_map(MODEL, v, p)[0]))(vs, {"gamma": jnp.asarray(gammas)})
+    for i, g in enumerate(gammas):
+        np.testing.assert_allclose(batched_map[i], single(vs[i], {"gamma": jnp.asarray(g)}), rtol=0, atol=1e-13)
+
+    batched = analyse_grid(MODEL, {}, {"gamma": gammas}, continuation_axis=None)
+    search = jax.jit(lambda p: find_gait(MODEL, p, MODEL.initial_guess(p)))
+    for i, g in enumerate(gammas):
+        one = search({"gamma": jnp.asarray(g)})
+        assert batched["status"][i] == one.status == 0
+        np.testing.assert_allclose(batched["fixed_point"][i], one.v, atol=1e-9)
+        np.testing.assert_allclose(batched["lambda_max"][i], one.lambda_max, atol=1e-6)
+
+
+def test_failed_search_is_a_status_not_a_number():
+    """On an uphill slope the passive walker cannot walk: named status, NaN numbers."""
+    out = analyse_grid(MODEL, {}, {"gamma": np.array([-0.01])}, continuation_axis=None)
+    assert out["status"][0] != 0
+    assert np.isnan(out["lambda_max"][0]) and np.all(np.isnan(out["fixed_point"][0]))
