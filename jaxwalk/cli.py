@@ -1,0 +1,126 @@
+"""The command line, ``jaxwalk <command> ...``.
+
+Commands:
+    sweep CONFIG.toml --out DIR   run a config-driven sweep (docs/sweeps.md)
+
+Each command is a small function ``cmd_<name>(args) -> exit status`` with its
+own ``add_<name>`` that declares its arguments; :func:`build_parser` lists
+them, so a new command (simulate, plot, optimize) is two functions and a line.
+
+Bad input of any kind (a bad config, an unknown model or parameter, a missing
+file, an unusable ``--out``, bad arguments) ends with exactly one line
+``jaxwalk: error: <message>`` on stderr, exit status 2, no traceback, and
+nothing written.
+"""
+
+from __future__ import annotations
+
+import argparse
+import shlex
+import sys
+from typing import Callable, Sequence
+
+PROG = "jaxwalk"
+EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
+
+
+class UsageError(Exception):
+    """Bad command-line arguments (raised instead of argparse's multi-line exit)."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str):  # argparse would print the usage too: keep it to one line
+        raise UsageError(message)
+
+
+# ---------------------------------------------------------------- sweep
+
+
+def add_sweep(sub) -> None:
+    p = sub.add_parser("sweep", help="run a parameter sweep from a TOML config", description=cmd_sweep.__doc__)
+    p.add_argument("config", metavar="CONFIG.toml", help="sweep config (see docs/sweeps.md)")
+    p.add_argument("--out", required=True, metavar="DIR", help="output directory; the dataset is DIR/<name>.zarr")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--no-plot", action="store_true", help="no quick-look figure DIR/<name>.png")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing DIR/<name>.zarr")
+    p.add_argument("--max-points", type=_positive_int, default=None, metavar="N", help="largest grid accepted (default 10,000,000)")
+    p.set_defaults(run=cmd_sweep)
+
+
+def cmd_sweep(args: argparse.Namespace) -> int:
+    """Run the sweep in CONFIG.toml and write DIR/<name>.zarr (and a quick-look DIR/<name>.png)."""
+    from jaxwalk.sweep.config import DEFAULT_MAX_POINTS, load_config
+    from jaxwalk.sweep.runner import run_sweep
+
+    config = load_config(args.config, max_points=args.max_points or DEFAULT_MAX_POINTS)
+    path = run_sweep(  # checks --out before computing anything
+        config,
+        args.out,
+        progress=not args.no_progress,
+        overwrite=args.overwrite,
+        plot=not args.no_plot,
+        command=args.command_line,
+    )
+    print(f"wrote {path}: {_status_summary(path)}")
+    return EXIT_OK
+
+
+def _status_summary(path) -> str:
+    import numpy as np
+    import xarray as xr
+
+    from jaxwalk.status import describe
+
+    with xr.open_dataset(path, engine="zarr") as ds:
+        codes, counts = np.unique(ds["status"].values, return_counts=True)
+    total = int(counts.sum())
+    return f"{total} points, " + ", ".join(f"{int(n)} {describe(c)}" for c, n in zip(codes, counts))
+
+
+# ---------------------------------------------------------------- parser
+
+#: The commands, in the order ``--help`` lists them.
+COMMANDS: tuple[Callable, ...] = (add_sweep,)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from jaxwalk import __version__
+
+    parser = _Parser(prog=PROG, description="JAX-vectorised stability analysis of dynamic walkers.")
+    parser.add_argument("--version", action="version", version=f"{PROG} {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    for add in COMMANDS:
+        add(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; return the exit status."""
+    from jaxwalk.sweep.config import ConfigError
+
+    argv = list(sys.argv[1:] if argv is None else argv)
+    try:
+        args = build_parser().parse_args(argv)
+        args.command_line = shlex.join([PROG, *argv])
+        return args.run(args)
+    except (UsageError, ConfigError) as err:
+        return _fail(str(err), EXIT_USAGE)
+    except OSError as err:  # the disk, not the input: still one line
+        return _fail(f"{f'{err.filename}: ' if err.filename else ''}{err.strerror or err}", EXIT_FAILED)
+    except KeyboardInterrupt:
+        return _fail("interrupted", 130)
+
+
+def _fail(message: str, status: int) -> int:
+    print(f"{PROG}: error: {' '.join(message.split())}", file=sys.stderr)
+    return status
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
+    return value

@@ -1,0 +1,17 @@
+"""Config-driven parameter sweeps: TOML in, an xarray/zarr dataset out.
+
+``config`` checks and resolves a sweep, ``runner`` runs the analysis over its
+grid, ``dataset`` lays out and writes the results, ``quicklook`` draws a first
+figure. See ``docs/sweeps.md``.
+"""
+
+from jaxwalk.sweep.config import (
+    DEFAULT_MAX_POINTS as DEFAULT_MAX_POINTS,
+    ConfigError as ConfigError,
+    GridAxis as GridAxis,
+    SweepConfig as SweepConfig,
+    load_config as load_config,
+    loads_config as loads_config,
+    parse_config as parse_config,
+)
+from jaxwalk.sweep.runner import check_results as check_results, run_sweep as run_sweep

@@ -1,0 +1,402 @@
+"""Sweep configs: read a TOML file, check it against its model, resolve the grid.
+
+A config names a model, fixes some of its parameters and sweeps others over a
+Cartesian grid (see ``docs/sweeps.md``)::
+
+    name = "slope_scan"
+    model = "simplest"
+    [params]
+    [grid]
+    gamma = { start = 0.002, stop = 0.015, num = 64 }   # or { values = [...] }
+    [analysis]
+    stability = true
+    continuation = "gamma"
+
+Everything is checked here, before anything is computed or written: every
+problem is a :class:`ConfigError` whose message is one line naming the file,
+the section and the key at fault.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import json
+import math
+import re
+import tomllib
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+from jaxwalk.models import get_model
+from jaxwalk.parameters import ParamSpec
+
+#: Largest grid accepted by default (points); callers may pass their own ``max_points``.
+DEFAULT_MAX_POINTS = 10_000_000
+
+SECTIONS = ("params", "grid", "analysis")
+TOP_LEVEL_KEYS = ("name", "model", *SECTIONS)
+AXIS_KEYS = ("start", "stop", "num", "values")
+#: Solver settings passed through to the analysis when set (absent: its defaults).
+SOLVER_KEYS = ("rtol", "atol", "newton_tol", "max_newton_iter")
+ANALYSIS_KEYS = ("stability", "continuation", *SOLVER_KEYS)
+
+_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*\Z")
+
+
+class ConfigError(Exception):
+    """A sweep's input is unusable. ``str(err)`` is one line, fit for a terminal."""
+
+
+@dataclasses.dataclass(frozen=True)
+class GridAxis:
+    """One swept parameter.
+
+    Attributes:
+        name: the parameter.
+        values: ``(num,)`` float64, read-only, in sweep order.
+        spec: the axis as written, numbers as floats: ``{"start", "stop", "num"}``
+            or ``{"values"}``.
+    """
+
+    name: str
+    values: np.ndarray
+    spec: dict[str, Any]
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class SweepConfig:
+    """A checked, resolved sweep.
+
+    Attributes:
+        name: dataset name (also its file name, ``<name>.zarr``).
+        model: registry name of the model.
+        params: the ``[params]`` table as written (floats).
+        fixed: every parameter that is not swept: the model's defaults updated by ``params``.
+        axes: the swept parameters, in the order written; the grid is their Cartesian product.
+        stability: whether to compute the Jacobian, its eigenvalues and ``lambda_max``.
+        continuation: the axis along which Newton warm-starts from its converged
+            neighbour, or ``None`` for independent points.
+        solver: the solver settings of ``[analysis]`` that were given.
+        source: where the config came from (a path, or a label).
+        text: the TOML source, when read from text.
+    """
+
+    name: str
+    model: str
+    params: dict[str, float]
+    fixed: dict[str, float]
+    axes: tuple[GridAxis, ...]
+    stability: bool = True
+    continuation: str | None = None
+    solver: dict[str, float | int] = dataclasses.field(default_factory=dict)
+    source: str = "<config>"
+    text: str | None = None
+
+    @property
+    def dims(self) -> tuple[str, ...]:
+        return tuple(a.name for a in self.axes)
+
+    @property
+    def grid(self) -> dict[str, np.ndarray]:
+        """Swept values by parameter, in grid order."""
+        return {a.name: a.values for a in self.axes}
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return tuple(len(a.values) for a in self.axes)
+
+    @property
+    def n_points(self) -> int:
+        return math.prod(self.shape)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The resolved config, itself a valid config (TOML/JSON-ready).
+
+        ``params`` holds every fixed value, defaults included; ``continuation`` is
+        the axis used, or ``False``.
+        """
+        return {
+            "name": self.name,
+            "model": self.model,
+            "params": dict(self.fixed),
+            "grid": {a.name: dict(a.spec) for a in self.axes},
+            "analysis": {
+                "stability": self.stability,
+                "continuation": self.continuation if self.continuation is not None else False,
+                **self.solver,
+            },
+        }
+
+    def to_json(self) -> str:
+        return json.dumps(self.to_dict())
+
+
+# ---------------------------------------------------------------- loading
+
+
+def load_config(path: str | Path, *, max_points: int = DEFAULT_MAX_POINTS) -> SweepConfig:
+    """Read and check the TOML config at ``path``. Raises :class:`ConfigError`."""
+    try:
+        raw = Path(path).read_bytes()
+    except FileNotFoundError:
+        raise ConfigError(f"config file '{path}' not found") from None
+    except IsADirectoryError:
+        raise ConfigError(f"config file '{path}' is a directory") from None
+    except OSError as err:
+        raise ConfigError(f"cannot read config file '{path}': {err.strerror or err}") from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError:
+        raise ConfigError(f"{path}: not a UTF-8 text file") from None
+    return loads_config(text, source=str(path), max_points=max_points)
+
+
+def loads_config(text: str, *, source: str = "<config>", max_points: int = DEFAULT_MAX_POINTS) -> SweepConfig:
+    """Parse and check a config from TOML text. Raises :class:`ConfigError`."""
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        # tomllib's message carries "(at line L, column C)".
+        raise ConfigError(f"{source}: invalid TOML: {_one_line(err)}") from None
+    return parse_config(data, source=source, text=text, max_points=max_points)
+
+
+def parse_config(
+    data: Mapping[str, Any],
+    *,
+    source: str = "<config>",
+    text: str | None = None,
+    max_points: int = DEFAULT_MAX_POINTS,
+) -> SweepConfig:
+    """Check a config given as a mapping (parsed TOML) and resolve it.
+
+    Raises:
+        ConfigError: with a one-line message prefixed by ``source``.
+    """
+
+    def fail(message: str) -> ConfigError:
+        return ConfigError(f"{source}: {message}")
+
+    if not isinstance(data, Mapping):
+        raise fail("a config must be a TOML table")
+    for key in data:
+        if key not in TOP_LEVEL_KEYS:
+            kind = "section" if isinstance(data[key], Mapping) else "key"
+            raise fail(f"unknown top-level {kind} '{key}'{_did_you_mean(key, TOP_LEVEL_KEYS)} (allowed: {', '.join(TOP_LEVEL_KEYS)})")
+    for key in SECTIONS:
+        if key in data and not isinstance(data[key], Mapping):
+            raise fail(f"'{key}' must be a table ([{key}]), got {_kind(data[key])}")
+
+    name = _name(data, fail)
+    model_name = data.get("model")
+    if model_name is None:
+        raise fail("missing 'model' (e.g. model = \"simplest\")")
+    if not isinstance(model_name, str):
+        raise fail(f"'model' must be a string, got {_kind(model_name)}")
+    try:
+        model = get_model(model_name)
+    except KeyError as err:
+        raise fail(err.args[0]) from None
+    specs: dict[str, ParamSpec] = model.param_specs
+
+    params = _params(data.get("params", {}), specs, model_name, fail)
+    axes_raw = data.get("grid")
+    if not axes_raw:
+        raise fail("[grid] is missing or empty: sweep at least one parameter (e.g. gamma = { start = 0.002, stop = 0.015, num = 64 })")
+    axis_specs = {
+        axis: _axis_spec(axis, spec, specs, params, model_name, fail) for axis, spec in axes_raw.items()
+    }
+    _check_size(axis_specs, len(model.section_names), max_points, fail)
+    axes = tuple(_axis(axis, spec) for axis, spec in axis_specs.items())
+    stability, continuation, solver = _analysis(data.get("analysis", {}), axes, fail)
+
+    fixed = {p: spec.default for p, spec in specs.items() if p not in axis_specs}
+    fixed.update(params)
+    return SweepConfig(
+        name=name,
+        model=model_name,
+        params=params,
+        fixed={p: float(v) for p, v in fixed.items()},
+        axes=axes,
+        stability=stability,
+        continuation=continuation,
+        solver=solver,
+        source=source,
+        text=text,
+    )
+
+
+# ---------------------------------------------------------------- sections
+
+
+def _name(data, fail) -> str:
+    name = data.get("name")
+    if name is None:
+        raise fail("missing 'name' (the dataset name, e.g. name = \"slope_scan\")")
+    if not isinstance(name, str) or not _NAME.match(name):
+        raise fail(f"'name' must be a string of letters, digits, '_', '.', '-' (a file name), got {name!r}")
+    return name
+
+
+def _params(table, specs, model_name, fail) -> dict[str, float]:
+    out = {}
+    for key, value in table.items():
+        if key not in specs:
+            raise fail(f"[params]: {_unknown_param(key, specs, model_name)}")
+        try:
+            specs[key].check(value)
+        except ValueError as err:
+            raise fail(f"[params]: {err}") from None
+        out[key] = float(value)
+    return out
+
+
+def _axis_spec(axis, spec, specs, params, model_name, fail) -> dict[str, Any]:
+    """The checked axis as written (floats); the values are made later, after the size check."""
+    where = f"[grid] axis '{axis}'"
+    if axis not in specs:
+        raise fail(f"[grid]: {_unknown_param(axis, specs, model_name)}")
+    if axis in params:
+        raise fail(f"parameter '{axis}' is both fixed in [params] and swept in [grid]; remove one")
+    if not isinstance(spec, Mapping):
+        raise fail(f"{where} must be a table, {{ start = .., stop = .., num = .. }} or {{ values = [..] }}, got {_kind(spec)}")
+    for key in spec:
+        if key not in AXIS_KEYS:
+            raise fail(f"{where}: unknown key '{key}'{_did_you_mean(key, AXIS_KEYS)} (allowed: {', '.join(AXIS_KEYS)})")
+    ps = specs[axis]
+
+    def check(value, what):
+        try:
+            ps.check(value)
+        except ValueError as err:
+            raise fail(f"{where}: {what}: {err}") from None
+        return float(value)
+
+    if "values" in spec:
+        if set(spec) != {"values"}:
+            raise fail(f"{where}: give either values or start/stop/num, not both")
+        values = spec["values"]
+        if not isinstance(values, list):
+            raise fail(f"{where}: values must be an array of numbers, got {_kind(values)}")
+        if not values:
+            raise fail(f"{where}: values is empty")
+        values = [check(v, f"value {i}") for i, v in enumerate(values)]
+        if len(set(values)) != len(values):
+            dup = next(v for v in values if values.count(v) > 1)
+            raise fail(f"{where}: value {dup} appears more than once")
+        return {"values": values}
+
+    missing = [k for k in ("start", "stop", "num") if k not in spec]
+    if missing:
+        raise fail(f"{where}: needs start, stop and num, or values (missing: {', '.join(missing)})")
+    num = spec["num"]
+    if isinstance(num, bool) or not isinstance(num, int):
+        raise fail(f"{where}: num must be an integer, got {num!r}")
+    if num < 1:
+        raise fail(f"{where}: num must be at least 1, got {num}")
+    # Bounds are intervals and linspace's endpoints are exactly start and stop,
+    # so checking the two endpoints checks every value of the axis.
+    start, stop = check(spec["start"], "start"), check(spec["stop"], "stop")
+    if num > 1 and start == stop:
+        raise fail(f"{where}: start equals stop with num = {num} (every value the same)")
+    if num == 1 and start != stop:
+        raise fail(f"{where}: num = 1 with start != stop; for one value write values = [{start}]")
+    return {"start": start, "stop": stop, "num": num}
+
+
+def _axis(name: str, spec: dict[str, Any]) -> GridAxis:
+    if "values" in spec:
+        values = np.asarray(spec["values"], dtype=np.float64)
+    else:
+        values = np.linspace(spec["start"], spec["stop"], spec["num"], dtype=np.float64)
+    values.setflags(write=False)
+    return GridAxis(name, values, spec)
+
+
+def _check_size(axis_specs, n_v, max_points, fail) -> None:
+    lengths = [len(s["values"]) if "values" in s else s["num"] for s in axis_specs.values()]
+    n = math.prod(lengths)
+    if n > max_points:
+        shape = " x ".join(str(k) for k in lengths)
+        raise fail(
+            f"[grid] has {n:,} points ({shape}), more than the limit of {max_points:,}; "
+            f"its results alone would take about {_human_bytes(n * result_bytes_per_point(n_v))} "
+            "(shrink the grid or raise the limit, --max-points)"
+        )
+
+
+def _analysis(table, axes, fail) -> tuple[bool, str | None, dict[str, float | int]]:
+    for key in table:
+        if key not in ANALYSIS_KEYS:
+            raise fail(f"[analysis]: unknown key '{key}'{_did_you_mean(key, ANALYSIS_KEYS)} (allowed: {', '.join(ANALYSIS_KEYS)})")
+    stability = table.get("stability", True)
+    if not isinstance(stability, bool):
+        raise fail(f"[analysis]: stability must be true or false, got {stability!r}")
+
+    names = [a.name for a in axes]
+    continuation = table.get("continuation", True)
+    if continuation is True:
+        continuation = names[0]
+    elif continuation is False:
+        continuation = None
+    elif not isinstance(continuation, str):
+        raise fail(f"[analysis]: continuation must be a grid axis name or false, got {continuation!r}")
+    elif continuation not in names:
+        raise fail(f"[analysis]: continuation = '{continuation}' is not a grid axis (axes: {', '.join(names)})")
+
+    solver: dict[str, float | int] = {}
+    for key in SOLVER_KEYS:
+        if key not in table:
+            continue
+        value = table[key]
+        if key == "max_newton_iter":
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise fail(f"[analysis]: {key} must be a positive integer, got {value!r}")
+        else:
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0 < value < math.inf):
+                raise fail(f"[analysis]: {key} must be a positive number, got {value!r}")
+            value = float(value)
+        solver[key] = value
+    return stability, continuation, solver
+
+
+# ---------------------------------------------------------------- helpers
+
+
+def result_bytes_per_point(n_v: int) -> int:
+    """Bytes one grid point takes in the dataset (see :mod:`jaxwalk.sweep.dataset`).
+
+    status int8, newton_iterations int32, lambda_max, period, step_length, speed
+    float64, and per section coordinate a fixed-point float64 and an eigenvalue
+    (real and imaginary float64).
+    """
+    return 1 + 4 + 4 * 8 + n_v * (8 + 16)
+
+
+def _unknown_param(key: str, specs: Mapping[str, ParamSpec], model: str) -> str:
+    return f"unknown parameter '{key}' for model '{model}'{_did_you_mean(key, specs)} (known: {', '.join(specs)})"
+
+
+def _did_you_mean(key: str, choices) -> str:
+    close = difflib.get_close_matches(str(key), list(choices), n=1)
+    return f" (did you mean '{close[0]}'?)" if close else ""
+
+
+def _kind(value) -> str:
+    names = {bool: "a boolean", int: "an integer", float: "a number", str: "a string", list: "an array"}
+    return names.get(type(value), "a table" if isinstance(value, Mapping) else type(value).__name__)
+
+
+def _human_bytes(n: float) -> str:
+    for unit in ("B", "KB", "MB", "GB"):
+        if n < 1000:
+            return f"{n:.3g} {unit}"
+        n /= 1000
+    return f"{n:.3g} TB"
+
+
+def _one_line(err: Exception) -> str:
+    return " ".join(str(err).split())

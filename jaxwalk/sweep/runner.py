@@ -1,0 +1,206 @@
+"""Run a sweep: config in, the analysis over its grid, dataset out.
+
+The analysis is :func:`jaxwalk.grid.analyse_grid` (imported only when a sweep
+runs, so configs can be checked without it). Any function with its signature
+may be passed instead as ``analyse=``::
+
+    analyse(model, fixed, grid, continuation_axis, options, progress=None) -> dict[str, np.ndarray]
+
+with ``fixed`` every non-swept parameter (``{name: float}``), ``grid`` the swept
+axes in grid order (``{name: (n_i,) float64}``), ``continuation_axis`` a key of
+``grid`` or ``None``, ``options`` a :class:`jaxwalk.grid.AnalysisOptions` made
+from ``[analysis]`` (:func:`analysis_options`), and ``progress`` a callable
+taking the number of grid points just finished. For grid shape ``S`` it returns
+``status`` (int, ``S``), ``lambda_max``, ``period``, ``step_length``, ``speed``,
+``newton_iterations`` (``S``), ``eigenvalues`` (complex, ``S + (n_v,)``) and
+``fixed_point`` (``S + (n_v,)``); other keys are ignored. The analysis owns
+batching, chunking and devices; :func:`check_results` holds it to this contract.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import shlex
+import sys
+import warnings
+from pathlib import Path
+from typing import Callable, Mapping
+
+import numpy as np
+
+from jaxwalk.models import get_model
+from jaxwalk.status import DATASET_STATUSES, Status
+from jaxwalk.sweep.config import DEFAULT_MAX_POINTS, ConfigError, SweepConfig, load_config
+
+Analyse = Callable[..., Mapping[str, np.ndarray]]
+
+#: Result arrays, with whether they carry a section-sized trailing axis.
+RESULT_KEYS = {
+    "status": False,
+    "lambda_max": False,
+    "eigenvalues": True,
+    "fixed_point": True,
+    "period": False,
+    "step_length": False,
+    "speed": False,
+    "newton_iterations": False,
+}
+_FLOATS = ("lambda_max", "eigenvalues", "fixed_point", "period", "step_length", "speed")
+_VALID_CODES = np.array([int(s) for s in DATASET_STATUSES])
+#: ``[analysis]`` keys and the ``NewtonOptions`` / ``SolverOptions`` fields they set.
+_NEWTON_FIELDS = {"newton_tol": "tol", "max_newton_iter": "max_iter"}
+_SOLVER_FIELDS = {"rtol": "rtol", "atol": "atol"}
+
+
+def run_sweep(
+    config: SweepConfig | str | os.PathLike,
+    out_dir: str | os.PathLike,
+    progress: bool = True,
+    *,
+    analyse: Analyse | None = None,
+    overwrite: bool = False,
+    plot: bool = True,
+    command: str | None = None,
+    max_points: int = DEFAULT_MAX_POINTS,
+) -> Path:
+    """Run the sweep ``config`` and write ``out_dir/<name>.zarr``; return that path.
+
+    Args:
+        config: a :class:`SweepConfig` or the path of a TOML config.
+        out_dir: output directory (created if needed).
+        progress: show a progress bar (on stderr).
+        analyse: the analysis function (default :func:`jaxwalk.grid.analyse_grid`).
+        overwrite: replace an existing dataset of the same name.
+        plot: also write a quick-look figure ``out_dir/<name>.png``.
+        command: command line recorded in the dataset (default: ``sys.argv``).
+        max_points: grid size limit when ``config`` is a path.
+
+    Raises:
+        ConfigError: bad config or output directory, before anything is computed or written.
+    """
+    from tqdm.auto import tqdm
+
+    if not isinstance(config, SweepConfig):
+        config = load_config(config, max_points=max_points)
+    model = get_model(config.model)
+    target = check_output(out_dir, config.name, overwrite=overwrite)
+    options = analysis_options(config)
+    if analyse is None:
+        from jaxwalk import grid
+
+        analyse = grid.analyse_grid
+    if command is None:
+        command = " ".join(shlex.quote(a) for a in sys.argv)
+
+    with tqdm(total=config.n_points, unit="pt", desc=config.name, disable=not progress) as bar:
+        results = analyse(model, dict(config.fixed), config.grid, config.continuation, options, progress=bar.update)
+    results = check_results(results, config.shape, len(model.section_names), stability=config.stability)
+
+    from jaxwalk.sweep.dataset import build_dataset, write_zarr
+
+    ds = build_dataset(config, model, results, command=command, options=_as_attribute(options))
+    write_zarr(ds, target, overwrite=overwrite)
+    if plot:
+        try:
+            from jaxwalk.sweep.quicklook import save_quicklook
+
+            save_quicklook(ds, target.with_suffix(".png"))
+        except Exception as err:  # a figure is a convenience; the dataset is written
+            warnings.warn(f"quick-look figure not written: {err}", stacklevel=2)
+    return target
+
+
+def analysis_options(config: SweepConfig):
+    """The :class:`jaxwalk.grid.AnalysisOptions` of ``config``: its defaults, updated
+    by the solver settings ``[analysis]`` gives."""
+    from jaxwalk.grid import AnalysisOptions
+
+    base = AnalysisOptions()
+    solver = dataclasses.replace(base.solver, **{_SOLVER_FIELDS[k]: v for k, v in config.solver.items() if k in _SOLVER_FIELDS})
+    newton = dataclasses.replace(base.newton, **{_NEWTON_FIELDS[k]: v for k, v in config.solver.items() if k in _NEWTON_FIELDS})
+    return dataclasses.replace(base, solver=solver, newton=newton)
+
+
+def _as_attribute(options) -> dict:
+    return dataclasses.asdict(options) if dataclasses.is_dataclass(options) else dict(options)
+
+
+def check_output(out_dir: str | os.PathLike, name: str, *, overwrite: bool = False) -> Path:
+    """``out_dir/<name>.zarr`` if it can be written; creates nothing.
+
+    Raises:
+        ConfigError: ``out_dir`` is not a directory or not writable, or the dataset
+            exists and ``overwrite`` is false.
+    """
+    out = Path(out_dir)
+    target = out / f"{name}.zarr"
+    if out.exists() and not out.is_dir():
+        raise ConfigError(f"--out '{out}' exists and is not a directory")
+    existing = out
+    while not existing.exists():
+        if existing.parent == existing:
+            break
+        existing = existing.parent
+    if not existing.is_dir():
+        raise ConfigError(f"--out '{out}': '{existing}' is not a directory")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise ConfigError(f"--out '{out}': '{existing}' is not writable")
+    if (target.exists() or target.is_symlink()) and not overwrite:
+        raise ConfigError(f"'{target}' already exists (pass --overwrite to replace it)")
+    return target
+
+
+def check_results(
+    results: Mapping[str, np.ndarray], shape: tuple[int, ...], n_v: int, *, stability: bool = True
+) -> dict[str, np.ndarray]:
+    """Check the analysis output against the contract and make its failures explicit.
+
+    Shapes and status codes must match (``ValueError`` otherwise). Then: where
+    ``status != 0`` every float is set to NaN; where ``status == 0`` but a number
+    that should exist is not finite, the status becomes ``NONFINITE`` and the
+    floats NaN. Without ``stability``, ``lambda_max`` and the eigenvalues are
+    not required and are written as NaN.
+
+    Returns:
+        New arrays: status int8, newton_iterations int32, eigenvalues complex128,
+        the rest float64.
+    """
+    missing = [k for k in RESULT_KEYS if k not in results]
+    if missing:
+        raise ValueError(f"the analysis returned no {', '.join(missing)}")
+    out = {}
+    for key, per_section in RESULT_KEYS.items():
+        value = np.asarray(results[key])
+        expected = shape + ((n_v,) if per_section else ())
+        if value.shape != expected:
+            raise ValueError(f"the analysis returned '{key}' of shape {value.shape}, expected {expected}")
+        out[key] = value
+    status = out["status"]
+    if not np.issubdtype(status.dtype, np.integer):
+        raise ValueError(f"the analysis returned 'status' of dtype {status.dtype}, expected an integer type")
+    bad = ~np.isin(status, _VALID_CODES)
+    if bad.any():
+        raise ValueError(f"the analysis returned status codes {sorted(set(status[bad].tolist()))}, not dataset statuses")
+    status = status.astype(np.int8)
+    out["eigenvalues"] = out["eigenvalues"].astype(np.complex128)
+    for key in ("lambda_max", "fixed_point", "period", "step_length", "speed"):
+        out[key] = out[key].astype(np.float64)
+    out["newton_iterations"] = out["newton_iterations"].astype(np.int32)
+
+    required = ["fixed_point", "period", "step_length", "speed"] + (["lambda_max", "eigenvalues"] if stability else [])
+    finite = np.ones(shape, bool)
+    for key in required:
+        ok = np.isfinite(out[key])
+        finite &= ok.all(axis=-1) if RESULT_KEYS[key] else ok
+    status = np.where((status == Status.OK) & ~finite, np.int8(Status.NONFINITE), status).astype(np.int8)
+    if not stability:  # not asked for: absent, whatever the analysis computed
+        out["lambda_max"] = np.full(shape, np.nan)
+        out["eigenvalues"] = np.full(shape + (n_v,), complex(np.nan, np.nan))
+    failed = status != Status.OK
+    for key in _FLOATS:
+        mask = failed[..., None] if RESULT_KEYS[key] else failed
+        nan = complex(np.nan, np.nan) if key == "eigenvalues" else np.nan
+        out[key] = np.where(mask, nan, out[key])
+    out["status"] = status
+    return out

@@ -1,0 +1,104 @@
+"""Shared fixtures: config files, the command line in a subprocess, a fake analysis.
+
+The fake analysis stands in for :func:`jaxwalk.grid.analyse_grid` so that the
+sweep front end (config, runner, dataset, CLI) is tested without compiling
+anything.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from jaxwalk.status import Status
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture
+def write_toml(tmp_path):
+    """``write_toml(text, name="sweep.toml") -> Path`` in a fresh directory."""
+
+    def write(text: str, name: str = "sweep.toml") -> Path:
+        path = tmp_path / name
+        path.write_text(textwrap.dedent(text))
+        return path
+
+    return write
+
+
+@pytest.fixture
+def run_cli(tmp_path):
+    """``run_cli(*args, cwd=tmp_path) -> CompletedProcess`` of ``python -m jaxwalk``."""
+
+    def run(*args: str, cwd: Path = tmp_path) -> subprocess.CompletedProcess:
+        env = dict(os.environ)
+        env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), env.get("PYTHONPATH")]))
+        return subprocess.run(
+            [sys.executable, "-m", "jaxwalk", *args], cwd=cwd, env=env, capture_output=True, text=True, timeout=120
+        )
+
+    return run
+
+
+class FakeAnalysis:
+    """A stand-in for ``jaxwalk.grid.analyse_grid`` with the same signature and outputs.
+
+    Numbers are smooth functions of ``s``, the sum of the grid values at a point:
+    ``lambda_max = 0.3 + 50 s`` (so it crosses 1 at ``s = 0.014``), period ``1 + s``,
+    step length ``0.5 + s``. Where the first axis exceeds ``fail_above`` the status
+    is ``NO_CONVERGENCE`` and the numbers are NaN, as a real analysis reports a
+    failure; with ``nan_with_ok`` one OK point gets a NaN period (a contract
+    violation the runner must catch). Every call is recorded in ``calls``.
+    """
+
+    def __init__(self, fail_above: float = np.inf, nan_with_ok: bool = False, error: Exception | None = None):
+        self.fail_above = fail_above
+        self.nan_with_ok = nan_with_ok
+        self.error = error
+        self.calls: list[dict] = []
+
+    def __call__(self, model, fixed, grid, continuation_axis, options, progress=None):
+        self.calls.append(
+            {"model": model, "fixed": dict(fixed), "grid": {k: np.array(v) for k, v in grid.items()},
+             "continuation_axis": continuation_axis, "options": options}
+        )
+        if self.error is not None:
+            raise self.error
+        n_v = len(model.section_names)
+        mesh = np.meshgrid(*grid.values(), indexing="ij")
+        s = np.sum(mesh, axis=0)
+        status = np.where(mesh[0] > self.fail_above, Status.NO_CONVERGENCE, Status.OK).astype(np.int8)
+        lam = 0.3 + 50.0 * s
+        out = {
+            "status": status,
+            "lambda_max": lam,
+            "eigenvalues": lam[..., None] * np.exp(1j * np.linspace(0.0, 1.0, n_v)),
+            "fixed_point": s[..., None] + np.arange(n_v),
+            "period": 1.0 + s,
+            "step_length": 0.5 + s,
+            "speed": (0.5 + s) / (1.0 + s),
+            "newton_iterations": np.full(s.shape, 4, np.int32),
+        }
+        failed = status != Status.OK
+        for key in ("lambda_max", "period", "step_length", "speed"):
+            out[key] = np.where(failed, np.nan, out[key])
+        for key in ("eigenvalues", "fixed_point"):
+            out[key] = np.where(failed[..., None], np.nan, out[key])
+        if self.nan_with_ok:
+            out["period"].flat[0] = np.nan
+        if progress is not None:
+            progress(status.size)
+        return out
+
+
+@pytest.fixture
+def fake_analysis():
+    """The :class:`FakeAnalysis` class (construct with the failures a test needs)."""
+    return FakeAnalysis

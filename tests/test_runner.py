@@ -1,0 +1,183 @@
+"""The sweep runner: calling the analysis, its contract, atomic writes, quick-look figures."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from jaxwalk.status import Status
+from jaxwalk.sweep import ConfigError, check_results, loads_config, run_sweep
+from jaxwalk.grid import AnalysisOptions
+from jaxwalk.sweep.runner import RESULT_KEYS, analysis_options
+
+COMPASS_2D = """
+name = "grid2d"
+model = "compass"
+[grid]
+m_h = { start = 5.0, stop = 20.0, num = 7 }
+gamma = { start = 0.01, stop = 0.05, num = 5 }
+[analysis]
+continuation = "gamma"
+"""
+
+
+def results_of(path):
+    with xr.open_dataset(path, engine="zarr") as ds:
+        return ds.load()
+
+
+# ---------------------------------------------------------------- calling the analysis
+
+
+def test_solver_settings_reach_the_analysis_options(tmp_path, fake_analysis):
+    config = loads_config(COMPASS_2D + "rtol = 1e-9\natol = 1e-11\nnewton_tol = 1e-7\nmax_newton_iter = 40\n")
+    options = analysis_options(config)
+    assert (options.solver.rtol, options.solver.atol) == (1e-9, 1e-11)
+    assert (options.newton.tol, options.newton.max_iter) == (1e-7, 40)
+    defaults = AnalysisOptions()
+    assert options.solver.solver == defaults.solver.solver and options.chunk_size == defaults.chunk_size
+    assert analysis_options(loads_config(COMPASS_2D)) == defaults
+
+    fake = fake_analysis()
+    path = run_sweep(config, tmp_path, progress=False, analyse=fake, plot=False)
+    (call,) = fake.calls
+    assert call["options"] == options
+    assert list(call["grid"]) == ["m_h", "gamma"] and call["continuation_axis"] == "gamma"
+    assert call["fixed"] == {p: s.default for p, s in call["model"].param_specs.items() if p not in ("m_h", "gamma")}
+    assert json.loads(results_of(path).attrs["analysis_options"])["newton"]["tol"] == 1e-7
+
+
+def test_progress_bar_counts_points(tmp_path, fake_analysis, capsys):
+    run_sweep(loads_config(COMPASS_2D), tmp_path, progress=True, analyse=fake_analysis(), plot=False)
+    assert "35/35" in capsys.readouterr().err
+
+
+# ---------------------------------------------------------------- the contract
+
+
+def fake_results(shape=(4,), n_v=3, **changes):
+    out = {
+        "status": np.zeros(shape, np.int8),
+        "lambda_max": np.full(shape, 0.5),
+        "eigenvalues": np.full(shape + (n_v,), 0.5 + 0.1j),
+        "fixed_point": np.ones(shape + (n_v,)),
+        "period": np.ones(shape),
+        "step_length": np.ones(shape),
+        "speed": np.ones(shape),
+        "newton_iterations": np.full(shape, 3),
+    }
+    out.update(changes)
+    return out
+
+
+def test_nan_with_status_ok_becomes_nonfinite():
+    period = np.ones(4)
+    period[1] = np.nan
+    fixed_point = np.ones((4, 3))
+    fixed_point[2, 1] = np.inf
+    out = check_results(fake_results(period=period, fixed_point=fixed_point), (4,), 3)
+    np.testing.assert_array_equal(out["status"], [0, Status.NONFINITE, Status.NONFINITE, 0])
+    assert out["status"].dtype == np.int8
+    assert np.isnan(out["lambda_max"][1:3]).all() and np.isnan(out["fixed_point"][1:3]).all()
+    assert np.isnan(out["eigenvalues"][1:3].real).all() and np.isnan(out["eigenvalues"][1:3].imag).all()
+
+
+def test_failed_points_have_nan_numbers():
+    status = np.array([0, Status.FELL, Status.NO_CONVERGENCE, 0], np.int8)
+    out = check_results(fake_results(status=status), (4,), 3)
+    for key in ("lambda_max", "period", "step_length", "speed", "fixed_point", "eigenvalues"):
+        np.testing.assert_array_equal(np.isnan(out[key]).reshape(4, -1).any(axis=1), [False, True, True, False])
+    np.testing.assert_array_equal(out["newton_iterations"], 3)  # kept: how hard Newton tried
+
+
+def test_without_stability_eigenvalues_are_not_required_nor_written():
+    out = check_results(fake_results(lambda_max=np.full(4, np.nan), eigenvalues=np.full((4, 3), np.nan)), (4,), 3, stability=False)
+    np.testing.assert_array_equal(out["status"], 0)
+    out = check_results(fake_results(), (4,), 3, stability=False)
+    assert np.isnan(out["lambda_max"]).all() and np.isnan(out["eigenvalues"].real).all()
+    assert np.isfinite(out["period"]).all()
+
+
+@pytest.mark.parametrize(
+    "changes, match",
+    [
+        ({"period": np.ones(5)}, "'period' of shape \\(5,\\), expected \\(4,\\)"),
+        ({"fixed_point": np.ones((4, 2))}, "'fixed_point' of shape"),
+        ({"status": np.full(4, 127, np.int8)}, "status codes \\[127\\]"),
+        ({"status": np.zeros(4)}, "dtype float64"),
+    ],
+)
+def test_contract_violations_raise(changes, match):
+    with pytest.raises(ValueError, match=match):
+        check_results(fake_results(**changes), (4,), 3)
+
+
+def test_missing_output_raises():
+    results = fake_results()
+    del results["speed"]
+    with pytest.raises(ValueError, match="returned no speed"):
+        check_results(results, (4,), 3)
+    assert "speed" in RESULT_KEYS
+
+
+def test_nan_with_ok_end_to_end(tmp_path, fake_analysis):
+    path = run_sweep(loads_config(COMPASS_2D), tmp_path, progress=False, analyse=fake_analysis(nan_with_ok=True), plot=False)
+    ds = results_of(path)
+    assert ds["status"].values.flat[0] == Status.NONFINITE
+    assert not (np.isnan(ds["period"].values) & (ds["status"].values == Status.OK)).any()
+
+
+# ---------------------------------------------------------------- writing
+
+
+def test_failed_analysis_leaves_nothing(tmp_path, fake_analysis):
+    out = tmp_path / "out"
+    with pytest.raises(RuntimeError, match="boom"):
+        run_sweep(loads_config(COMPASS_2D), out, progress=False, analyse=fake_analysis(error=RuntimeError("boom")))
+    assert not out.exists()
+
+
+def test_failed_write_leaves_nothing(tmp_path, fake_analysis, monkeypatch):
+    original = xr.Dataset.to_zarr
+
+    def half_then_fail(self, store, **kwargs):
+        original(self, store, **kwargs)  # a whole store in the temporary directory...
+        raise OSError("disk full")  # ...then the failure
+
+    monkeypatch.setattr(xr.Dataset, "to_zarr", half_then_fail)
+    with pytest.raises(OSError, match="disk full"):
+        run_sweep(loads_config(COMPASS_2D), tmp_path, progress=False, analyse=fake_analysis(), plot=False)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_existing_dataset_needs_overwrite(tmp_path, fake_analysis):
+    config = loads_config(COMPASS_2D)
+    first = fake_analysis()
+    path = run_sweep(config, tmp_path, progress=False, analyse=first, plot=False, command="first")
+    second = fake_analysis()
+    with pytest.raises(ConfigError, match="already exists"):
+        run_sweep(config, tmp_path, progress=False, analyse=second, plot=False)
+    assert second.calls == []  # refused before computing
+    run_sweep(config, tmp_path, progress=False, analyse=second, plot=False, overwrite=True, command="second")
+    assert results_of(path).attrs["command"] == "second"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["grid2d.zarr"]
+
+
+# ---------------------------------------------------------------- figures
+
+
+@pytest.mark.parametrize(
+    "text",
+    [COMPASS_2D, COMPASS_2D.replace("[analysis]", 'm = { values = [4.0, 5.0] }\n[analysis]'),
+     'name = "grid1d"\nmodel = "simplest"\n[grid]\ngamma = { start = 0.002, stop = 0.019, num = 18 }\n'],
+    ids=["2d", "3d", "1d"],
+)
+def test_quicklook_figure(tmp_path, fake_analysis, text):
+    config = loads_config(text)
+    path = run_sweep(config, tmp_path, progress=False, analyse=fake_analysis(fail_above=0.0155 if config.model == "simplest" else 15.0))
+    png = path.with_suffix(".png")
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([path.name, png.name])
