@@ -65,6 +65,17 @@ def applied_forces(
     return jnp.einsum("iak,ia->k", jac, per_point)
 
 
+def mass_matrix_and_forces(
+    points: Callable[[Array], Array], masses: Array, gravity: Array, q: Array, qd: Array
+) -> tuple[Array, Array]:
+    """:func:`mass_matrix` and :func:`applied_forces` sharing one Jacobian of ``points``."""
+    jac = jax.jacfwd(points)(q)
+    convective = second_derivative_along(points, q, qd)
+    mass = jnp.einsum("i,iak,ial->kl", masses, jac, jac)
+    per_point = masses[:, None] * (gravity[None, :] - convective)
+    return mass, jnp.einsum("iak,ia->k", jac, per_point)
+
+
 def kinetic_energy(points: Callable[[Array], Array], masses: Array, q: Array, qd: Array) -> Array:
     """``sum_i m_i |v_i|^2 / 2`` for point masses, a scalar."""
     velocities = jax.jvp(points, (q,), (qd,))[1]

@@ -70,6 +70,8 @@ class Walker:
     context: tuple[str, ...] = ()
     section_names: tuple[str, ...] = ()
     n_constraints: int = 0
+    #: Units of lengths and times in outputs (period, step length, speed).
+    units: dict = {"length": "1", "time": "1"}
 
     # Python identity is the cache key of every jitted function that closes
     # over a model: one instance per model, shared through the registry.
@@ -163,8 +165,7 @@ class Walker:
         q, qd = self.split(y)
         pts = lambda q_: self.points(q_, params)
         masses = self.masses(params)
-        mass = mechanics.mass_matrix(pts, masses, q)
-        forces = mechanics.applied_forces(pts, masses, self.gravity(params), q, qd)
+        mass, forces = mechanics.mass_matrix_and_forces(pts, masses, self.gravity(params), q, qd)
         forces = forces + self.joint_forces(q, qd, params, phase, ctx)
         sigma, psi = self.constraint_terms(q, qd, params, ctx)
         return mechanics.constrained_accelerations(mass, forces, sigma, psi, self.constraint_mask(phase, params))

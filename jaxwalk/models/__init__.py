@@ -8,6 +8,7 @@ from here rather than constructing a new one.
 from __future__ import annotations
 
 from jaxwalk.models.compass import CompassWalker
+from jaxwalk.models.kneed import KneedStopWalker, KneedWalker
 from jaxwalk.models.simplest import SimplestWalker
 from jaxwalk.walker import Walker
 

@@ -51,6 +51,7 @@ class CompassWalker(Walker):
     context = ("x_stance", "ground_next")
     section_names = ("alpha_1", "alpha_1_dot", "alpha_2_dot")
     n_constraints = 4  # stance foot (x, y), swing foot (x, y)
+    units = {"length": "m", "time": "s"}
 
     # The mass model; the simplest walker overrides this one method.
     def mass_model(self, params) -> tuple:

@@ -27,6 +27,7 @@ FOOT_MASS_RATIO = 1e-12
 class SimplestWalker(CompassWalker):
     name = "simplest"
     description = "simplest walking model, Garcia, Chatterjee, Ruina & Coleman (1998)"
+    units = {"length": "1", "time": "1"}  # leg length 1, g = 1: time in sqrt(l/g)
     parameters = (
         ParamSpec("gamma", 0.009, "rad", "slope angle (downhill positive)", lower=-0.5, upper=0.5),
     )

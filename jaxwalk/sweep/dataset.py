@@ -41,17 +41,10 @@ VERSIONED = ("jax", "jaxlib", "diffrax", "equinox", "optimistix", "numpy", "xarr
 def output_units(model: Walker) -> dict[str, str]:
     """Units of lengths, times and speeds in a model's results.
 
-    A model may declare ``units = {"length": "m", "time": "s"}``; otherwise a
-    model with any parameter in metres is taken to be SI and any other
-    dimensionless (leg length 1, g 1).
+    Every model declares ``units = {"length": ..., "time": ...}``
+    (:attr:`jaxwalk.walker.Walker.units`).
     """
-    declared = getattr(model, "units", None)
-    if declared:
-        length, time = declared["length"], declared["time"]
-    elif any(p.units == "m" for p in model.parameters):
-        length, time = "m", "s"
-    else:
-        length, time = "1", "1"
+    length, time = model.units["length"], model.units["time"]
     speed = "1" if (length, time) == ("1", "1") else f"{length} {time}-1"
     return {"length": length, "time": time, "speed": speed}
 
