@@ -20,6 +20,7 @@ import numpy as np
 from jaxwalk.continuation import continue_along, gaits_independent, seed_index, visiting_order
 from jaxwalk.gait import Gait, NewtonOptions
 from jaxwalk.step import SolverOptions
+from jaxwalk.stepdown import StepDownOptions, h_max
 from jaxwalk.walker import Walker
 
 
@@ -31,11 +32,14 @@ class AnalysisOptions:
         solver, newton: integration and fixed-point settings.
         chunk_size: configurations (or continuation lines) per jitted call;
             rounded up to a multiple of the device count.
+        step_down: settings of the global-stability test (the paper's h_m);
+            ``None`` skips it.
     """
 
     solver: SolverOptions = SolverOptions()
     newton: NewtonOptions = NewtonOptions()
     chunk_size: int = 256
+    step_down: StepDownOptions | None = None
 
 
 def parameter_grid(model: Walker, fixed: Mapping[str, float], grid: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -79,6 +83,15 @@ def _continuation_program(model: Walker, solver: SolverOptions, newton: NewtonOp
     order_a, restart_a = np.array(order, np.int32), np.array(restart, bool)
     line = lambda p: continue_along(model, p, order_a, restart_a, solver, newton)
     return jax.jit(jax.vmap(line))
+
+
+@functools.lru_cache(maxsize=None)
+def _step_down_program(model: Walker, solver: SolverOptions, step_down: StepDownOptions):
+    def one(p):
+        v = p.pop("__v_star__")
+        return h_max(model, p, v, step_down, solver)
+
+    return jax.jit(jax.vmap(one))
 
 
 def _run_chunks(program, params_rows: dict[str, np.ndarray], chunk: int, progress: Callable[[int], None] | None) -> Gait:
@@ -126,7 +139,11 @@ def analyse_grid(
         Arrays with the grid's shape ``S`` in front: ``status`` (int8),
         ``lambda_max``, ``eigenvalues`` (complex, ``S + (n_v,)``),
         ``fixed_point`` (``S + (n_v,)``), ``jacobian`` (``S + (n_v, n_v)``),
-        ``period``, ``step_length``, ``speed``, ``newton_iterations``.
+        ``period``, ``step_length``, ``speed``, ``newton_iterations``; with
+        ``options.step_down`` also ``h_max`` (NaN where no gait was found),
+        ``step_down_status`` (int8, the first failed drop's status, ``OK`` if none
+        failed up to the limit; where no gait was found, the gait's status) and
+        ``h_failed`` (that drop's height).
     """
     params = parameter_grid(model, fixed, grid)
     axes = list(grid)
@@ -153,7 +170,7 @@ def analyse_grid(
             return np.moveaxis(x, len(shape) - 1, k)
 
     gaits = jax.tree_util.tree_map(unflatten, gaits)
-    return {
+    out = {
         "status": gaits.status.astype(np.int8),
         "lambda_max": gaits.lambda_max,
         "eigenvalues": gaits.eigenvalues,
@@ -164,3 +181,13 @@ def analyse_grid(
         "speed": gaits.speed,
         "newton_iterations": gaits.iterations.astype(np.int32),
     }
+    if options.step_down is not None:
+        rows = {k: v.reshape(-1) for k, v in params.items()}
+        rows["__v_star__"] = gaits.v.reshape(-1, gaits.v.shape[-1])
+        program = _step_down_program(model, options.solver, options.step_down)
+        drops = _run_chunks(program, rows, options.chunk_size, None)
+        out["h_max"] = drops.h_max.reshape(shape)
+        no_gait = out["status"] != 0  # no h_max without a gait: carry the gait's status
+        out["step_down_status"] = np.where(no_gait, out["status"], drops.first_failure.astype(np.int8).reshape(shape))
+        out["h_failed"] = drops.failed_at.reshape(shape)
+    return out

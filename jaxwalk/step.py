@@ -19,8 +19,8 @@ from typing import NamedTuple
 import diffrax
 import jax
 import jax.numpy as jnp
-import optimistix as optx
 
+from jaxwalk.rootfind import BracketedNewton
 from jaxwalk.status import Status
 from jaxwalk.walker import Walker
 
@@ -86,7 +86,7 @@ def _solve_phase(model: Walker, params, y, phase, ctx, t0, opts: SolverOptions):
 
     event = diffrax.Event(
         smallest_guard,
-        root_finder=optx.Newton(rtol=opts.event_tol, atol=opts.event_tol),
+        root_finder=BracketedNewton(rtol=opts.event_tol, atol=opts.event_tol),
         direction=False,
     )
     t1 = t0 + opts.phase_time_limit * model.time_scale(params)

@@ -231,9 +231,12 @@ def test_step_down_simplest(simplest_fp):
     assert ok and np.max(np.abs(info["v_final"] - simplest_fp.v)) < 1e-10
     hm, details = ref.h_max({"gamma": GAMMA}, dh=0.0005, K=6, n_steps=10, v_star=simplest_fp.v,
                             return_details=True)
-    assert hm == pytest.approx(0.001)
+    # At h = 0.001 the swing leg still trails the stance leg at mid-stance of the
+    # first step after the drop (alpha_2 = -0.024 there): a scuff, which the foot
+    # height alone (a dip shorter than a solver step) would have let through.
+    assert hm == pytest.approx(0.0005)
     h, ok, info = details[-1]
-    assert h == pytest.approx(0.0015) and not ok and info["status"] == "fell" and info["failed_step"] == 1
+    assert h == pytest.approx(0.001) and not ok and info["status"] == "scuffing" and info["failed_step"] == 1
 
 
 def test_step_down_compass_small_drop(compass_fp):
@@ -250,7 +253,7 @@ def test_scuffing_rule_garcia(simplest_fp):
     x, info = ref.simplest_step_full(ref.v_to_state(simplest_fp.v), GAMMA, drop=0.0015 * math.cos(GAMMA))
     assert info["status"] == "ok"
     _, strict = ref.simplest_step_full(x, GAMMA)
-    assert strict["status"] == "fell" and abs(strict["step_length"]) < 1e-8
+    assert strict["status"] == "scuffing"
     _, garcia = ref.simplest_step_full(x, GAMMA, scuffing="ignore")
     assert garcia["status"] == "ok" and garcia["scuffed_after_midstance"]
     assert garcia["x_minus"][0] + garcia["x_minus"][1] == pytest.approx(0.0, abs=1e-12)

@@ -5,11 +5,15 @@ Two rigid straight legs of length ``l = a + b`` hinged at the hip, a point mass
 ``m_h`` at the hip and a point mass ``m`` on each leg a distance ``a`` above the
 foot (``b`` below the hip); point feet; passive, on a slope ``gamma``.
 
-One continuous phase (single support), ended by heel-strike, a perfectly
-inelastic impact of the swing foot after which the trailing foot leaves the
-ground, then the legs swap labels. The swing foot's passage through the ground
-near mid-stance is ignored, as in both papers: the heel-strike guard opens only
-once the stance leg has passed the slope normal.
+Single support, split at mid-stance (the stance leg passing the slope normal)
+into two phases with the same dynamics: before it the swing foot's passage
+through the ground is ignored, as in both papers; at it the swing leg must be
+ahead of the stance leg (else its foot would meet the ground at the stance
+foot later: ``SCUFFING``); after it, heel-strike is the swing foot reaching the
+ground, a perfectly inelastic impact after which the trailing foot leaves the
+ground, then the legs swap labels. The split makes both guards monotone
+where they matter, so a long solver step cannot step over a brief dip of the
+foot below the ground.
 
 Section: just after heel-strike (after the swap), stance foot at the origin.
 Independent coordinates ``v = (alpha_1, alpha_1_dot, alpha_2_dot)``: the stance
@@ -26,12 +30,18 @@ from jaxwalk.status import Status
 from jaxwalk.walker import Transition, Walker
 
 # Guard indices.
-HEEL_STRIKE, FALL, STALL, SWING_RANGE = range(4)
+HEEL_STRIKE, FALL, STALL, SWING_RANGE, MIDSTANCE = range(5)
+# Phases.
+EARLY, LATE = 0, 1
 
 #: Hip height (fraction of leg length, normal to the slope) below which the walker has fallen.
 FALL_HEIGHT = 0.5
 #: Largest swing-leg angle magnitude (rad) before we call it a fall.
 SWING_LIMIT = 1.5
+#: A heel-strike must land the swing foot this far (fraction of leg length) ahead
+#: of the stance foot; otherwise the guard's root is the legs-together one (the
+#: swing foot meeting the ground at the stance foot after mid-stance): a scuff.
+MIN_STEP_FRACTION = 0.01
 
 
 class CompassWalker(Walker):
@@ -46,8 +56,8 @@ class CompassWalker(Walker):
         positive("g", 9.81, "m s-2", "gravitational acceleration"),
     )
     coordinates = ("x_h", "y_h", "alpha_1", "alpha_2")
-    phases = ("single_support",)
-    guards = ("heel_strike", "fall", "stall", "swing_range")
+    phases = ("single_support_early", "single_support_late")
+    guards = ("heel_strike", "fall", "stall", "swing_range", "midstance")
     context = ("x_stance", "ground_next")
     section_names = ("alpha_1", "alpha_1_dot", "alpha_2_dot")
     n_constraints = 4  # stance foot (x, y), swing foot (x, y)
@@ -105,37 +115,44 @@ class CompassWalker(Walker):
         l = self.leg_length(params)
         feet = self.feet(q, params)
         a1, a2 = q[2], q[3]
-        swing_height = feet[1, 1] - ctx[1]
-        # Open only after the stance leg passed the normal: there the swing foot is
-        # at height l (1 - cos a2) + drop >= 0, so opening is never a crossing.
-        heel = jnp.where(a1 < 0.0, swing_height, 1.0)
+        early = phase == EARLY
+        # Mid-stance: the stance leg reaches the slope normal (alpha_1 is monotone,
+        # so no solver step can miss it). Before it, the swing foot's passage
+        # through the ground is ignored, as in both papers.
+        midstance = jnp.where(early, a1, 1.0)
+        # After it the swing foot is ahead of the hip and can only come down.
+        heel = jnp.where(early, 1.0, feet[1, 1] - ctx[1])
         fall = q[1] / l - FALL_HEIGHT
-        stall = jnp.where(a1 > 0.0, -qd[2], 1.0)
+        # Walking forward, the stance leg always rotates forward (alpha_1 decreasing).
+        stall = -qd[2]
         swing = SWING_LIMIT - jnp.abs(a2)
-        return jnp.stack([heel, fall, stall, swing])
+        return jnp.stack([heel, fall, stall, swing, midstance])
 
     def on_event(self, guard, t, y, params, phase, ctx):
         q, _ = self.split(y)
         feet = self.feet(q, params)
         # Heel-strike: the swing foot becomes the pivot, the trailing foot lifts off.
-        impact_ctx = ctx
-        y_plus, _ = self.apply_impact(y, params, impact_ctx, jnp.array([0.0, 0.0, 1.0, 1.0]))
+        y_plus, _ = self.apply_impact(y, params, ctx, jnp.array([0.0, 0.0, 1.0, 1.0]))
         q_p, qd_p = self.split(y_plus)
         shift = feet[1, 0]
         swapped_q = jnp.stack([q_p[0] - shift, q_p[1] - ctx[1], q_p[3], q_p[2]])
         swapped_qd = jnp.stack([qd_p[0], qd_p[1], qd_p[3], qd_p[2]])
         y_next = jnp.concatenate([swapped_q, swapped_qd])
-        ahead = feet[1, 0] > feet[0, 0]
+        ahead = feet[1, 0] - feet[0, 0] > MIN_STEP_FRACTION * self.leg_length(params)
         heel_status = jnp.where(ahead, Status.IN_PROGRESS, Status.SCUFFING)
+        # At mid-stance a swing leg still behind the stance leg must cross it
+        # later, below the hip: its foot meets the ground at the stance foot.
+        mid_status = jnp.where(q[3] > q[2], Status.IN_PROGRESS, Status.SCUFFING)
         status = jnp.select(
-            [guard == HEEL_STRIKE, guard == STALL],
-            [heel_status, Status.STALLED],
+            [guard == HEEL_STRIKE, guard == STALL, guard == MIDSTANCE],
+            [heel_status, Status.STALLED, mid_status],
             Status.FELL,
         ).astype(jnp.int8)
         done = (guard == HEEL_STRIKE) & ahead
         y_out = jnp.where(done, y_next, y)
         ctx_out = jnp.where(done, jnp.zeros_like(ctx), ctx)
-        return Transition(phase, y_out, ctx_out, status, done, jnp.where(done, shift, 0.0))
+        next_phase = jnp.where(done, EARLY, jnp.where(guard == MIDSTANCE, LATE, phase)).astype(jnp.int32)
+        return Transition(next_phase, y_out, ctx_out, status, done, jnp.where(done, shift, 0.0))
 
     # ------------------------------------------------------------ section
     def section_to_state(self, v, params):

@@ -427,6 +427,12 @@ def _stride(model: _Model, x0: np.ndarray, drop: float, rtol: float, atol: float
             return None, _fail(info, "fell", "hip below half the leg length")
         t0 = float(sol.t_events[0][0])
         x = np.array(sol.y_events[0][0])
+        if x[1] <= x[0] and scuffing == "fail":
+            # The swing leg still trails at mid-stance: the legs must cross below
+            # the hip, the swing foot meeting the ground at the stance foot. The
+            # foot's dip below ground after that crossing can be shorter than one
+            # solver step (event detection checks step ends only), so decide here.
+            return None, _fail(info, "scuffing", "swing leg behind the stance leg at mid-stance")
 
     def ev_heel(t, y):  # swing-foot height above the ground of this touchdown
         return l * (math.cos(y[0]) - math.cos(y[1])) + drop
@@ -468,7 +474,7 @@ def _stride(model: _Model, x0: np.ndarray, drop: float, rtol: float, atol: float
             info["scuffed_after_midstance"] = True
             heel, t0, x = ev_symmetric, info["step_time"], x_minus
             continue
-        return None, _fail(info, "fell", "heel-strike with the swing foot not ahead of the stance foot")
+        return None, _fail(info, "scuffing", "heel-strike with the swing foot not ahead of the stance foot")
 
 
 def _step_full(model: _Model, x0, drop: float = 0.0, rtol: float = RTOL, atol: float = ATOL,
