@@ -21,6 +21,12 @@ from jaxwalk.status import Status
 ROOT = Path(__file__).resolve().parents[1]
 
 
+def pytest_configure(config):
+    config.addinivalue_line(
+        "markers", "slow: compiles and runs the real analysis (seconds to minutes on CPU); deselect with -m 'not slow'"
+    )
+
+
 @pytest.fixture
 def write_toml(tmp_path):
     """``write_toml(text, name="sweep.toml") -> Path`` in a fresh directory."""
@@ -56,6 +62,14 @@ class FakeAnalysis:
     is ``NO_CONVERGENCE`` and the numbers are NaN, as a real analysis reports a
     failure; with ``nan_with_ok`` one OK point gets a NaN period (a contract
     violation the runner must catch). Every call is recorded in ``calls``.
+
+    With ``options.step_down`` (``[analysis] h_max``) it adds the step-down keys
+    as :func:`jaxwalk.grid.analyse_grid` does: at the grid point of flat index
+    ``i`` the first ``k = i mod (count + 1)`` drops survive, so ``h_max = k * dh``;
+    for ``k < count`` the next drop falls (``step_down_status`` ``FELL``,
+    ``h_failed = (k + 1) * dh``), for ``k = count`` none failed (``OK``,
+    ``h_failed`` NaN). Where the gait failed: ``h_max`` NaN, ``step_down_status``
+    the gait's status.
     """
 
     def __init__(self, fail_above: float = np.inf, nan_with_ok: bool = False, error: Exception | None = None):
@@ -93,6 +107,13 @@ class FakeAnalysis:
             out[key] = np.where(failed[..., None], np.nan, out[key])
         if self.nan_with_ok:
             out["period"].flat[0] = np.nan
+        step_down = getattr(options, "step_down", None)
+        if step_down is not None:
+            k = np.arange(s.size).reshape(s.shape) % (step_down.count + 1)
+            fell = k < step_down.count
+            out["h_max"] = np.where(failed, np.nan, k * step_down.dh)
+            out["step_down_status"] = np.where(failed, status, np.where(fell, Status.FELL, Status.OK)).astype(np.int8)
+            out["h_failed"] = np.where(failed | ~fell, np.nan, (k + 1) * step_down.dh)
         if progress is not None:
             progress(status.size)
         return out

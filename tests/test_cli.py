@@ -11,6 +11,7 @@ import xarray as xr
 from jaxwalk import cli
 from jaxwalk.grid import AnalysisOptions
 from jaxwalk.status import Status, flag_attributes
+from jaxwalk.stepdown import StepDownOptions
 from jaxwalk.sweep import load_config, run_sweep
 
 GOOD = """
@@ -49,8 +50,10 @@ DEFAULT_ARGS = ["sweep.toml", "--out", "out"]
         (GOOD.replace('"simplest"', '"hopper"'), DEFAULT_ARGS, ["unknown model 'hopper'"]),
         (None, DEFAULT_ARGS, ["config file 'sweep.toml' not found"]),
         (GOOD, ["sweep.toml", "--out", "file.txt"], ["--out 'file.txt' exists and is not a directory"]),
+        (GOOD + "[analysis]\nh_max = { step = -0.001 }\n", DEFAULT_ARGS,
+         ["sweep.toml: [analysis] h_max: step must be a positive number", "got -0.001"]),
     ],
-    ids=["nonphysical", "unknown-model", "missing-file", "out-is-file"],
+    ids=["nonphysical", "unknown-model", "missing-file", "out-is-file", "bad-h-max"],
 )
 def test_bad_input_subprocess(run_cli, tmp_path, config, args, fragments):
     if config is not None:
@@ -66,6 +69,7 @@ def test_bad_input_subprocess(run_cli, tmp_path, config, args, fragments):
 
 BAD_PARAM = GOOD + "[params]\nm = 3.0\n"
 BAD_TOML = 'name = "a"\nmodel = "simplest"\n[grid\n'
+H_MAX = GOOD + "[analysis]\nh_max = "
 
 
 @pytest.mark.parametrize(
@@ -80,6 +84,11 @@ BAD_TOML = 'name = "a"\nmodel = "simplest"\n[grid\n'
         (GOOD, ["sweep", "sweep.toml", "--out", "out", "--max-points", "0"], "expected a positive integer, got '0'"),
         (GOOD, ["sweep", "sweep.toml", "--out", "out", "--max-points", "10"], "more than the limit of 10"),
         (GOOD, ["sweep", ".", "--out", "out"], "config file '.' is a directory"),
+        (H_MAX + "{ stp = 0.001 }\n", ["sweep", "sweep.toml", "--out", "out"], "h_max: unknown key 'stp' (did you mean 'step'?)"),
+        (H_MAX + "{ count = 0 }\n", ["sweep", "sweep.toml", "--out", "out"], "h_max: count must be a positive integer"),
+        (H_MAX + "{ steps = 2.5 }\n", ["sweep", "sweep.toml", "--out", "out"], "h_max: steps must be a positive integer"),
+        (H_MAX + '"on"\n', ["sweep", "sweep.toml", "--out", "out"], "h_max must be true, false or a table"),
+        (H_MAX + "{ step = 0.001\n", ["sweep", "sweep.toml", "--out", "out"], "invalid TOML"),
     ],
 )
 def test_bad_input_in_process(tmp_path, monkeypatch, capsys, config, argv, fragment):
@@ -142,6 +151,20 @@ def test_cli_sweep_writes_dataset(tmp_path, monkeypatch, capsys, fake_grid):
     assert len(fake_grid.calls) == 1
     assert cli.main(argv + ["--overwrite"]) == 0
     assert len(fake_grid.calls) == 2
+
+
+def test_cli_sweep_with_h_max(tmp_path, monkeypatch, capsys, fake_grid):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "sweep.toml").write_text(GOOD + "[analysis]\nh_max = { step = 0.0005, count = 4, steps = 3 }\n")
+    assert cli.main(["sweep", "sweep.toml", "--out", "res", "--no-progress", "--no-plot"]) == 0
+    assert capsys.readouterr().out.startswith("wrote res/slope_scan.zarr: 18 points")
+    assert fake_grid.calls[0]["options"].step_down == StepDownOptions(dh=0.0005, count=4, n_steps=3)
+    with xr.open_dataset(tmp_path / "res" / "slope_scan.zarr", engine="zarr") as ds:
+        ds.load()
+    assert ds["h_max"].attrs["units"] == "1" and ds["h_max"].attrs["limit"] == pytest.approx(0.002)
+    status = ds["status"].values
+    np.testing.assert_array_equal(np.isnan(ds["h_max"].values), status != 0)
+    assert np.isin(ds["step_down_status"].values, flag_attributes()["flag_values"]).all()
 
 
 def test_end_to_end_dataset_layout(tmp_path, fake_analysis):

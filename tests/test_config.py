@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from jaxwalk.models import MODELS, get_model
+from jaxwalk.stepdown import StepDownOptions
 from jaxwalk.sweep.config import ConfigError, load_config, loads_config, parse_config
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -225,6 +226,42 @@ def test_bad_analysis(analysis, match):
     assert match in config_error(SIMPLEST + f"[analysis]\n{analysis}\n")
 
 
+@pytest.mark.parametrize(
+    "h_max, match",
+    [
+        ("1", "[analysis] h_max must be true, false or a table { step = .., count = .., steps = .. }, got 1"),
+        ('"yes"', "h_max must be true, false or a table"),
+        ("[0.001, 4]", "h_max must be true, false or a table"),
+        ("{ stpe = 0.001 }", "[analysis] h_max: unknown key 'stpe' (did you mean 'step'?) (allowed: step, count, steps)"),
+        ("{ step = 0.001, n_steps = 3 }", "h_max: unknown key 'n_steps' (did you mean 'steps'?)"),
+        ("{ dh = 0.001 }", "h_max: unknown key 'dh' (allowed: step, count, steps)"),
+        ("{ step = 0.0 }", "h_max: step must be a positive number (the resolution, in model length units), got 0.0"),
+        ("{ step = -0.001 }", "h_max: step must be a positive number"),
+        ('{ step = "fine" }', "step must be a positive number (the resolution, in model length units), got 'fine'"),
+        ("{ step = true }", "step must be a positive number"),
+        ("{ step = inf }", "step must be a positive number"),
+        ("{ step = nan }", "step must be a positive number"),
+        ("{ count = 0 }", "h_max: count must be a positive integer (drops tried: step, 2 step, ..., count * step), got 0"),
+        ("{ count = -4 }", "count must be a positive integer"),
+        ("{ count = 2.5 }", "count must be a positive integer (drops tried: step, 2 step, ..., count * step), got 2.5"),
+        ("{ count = true }", "count must be a positive integer"),
+        ("{ steps = 0 }", "h_max: steps must be a positive integer (steps to survive after the drop), got 0"),
+        ('{ steps = "10" }', "steps must be a positive integer (steps to survive after the drop), got '10'"),
+        ("{ step = 0.001, count = 4, steps = { n = 3 } }", "steps must be a positive integer"),
+    ],
+)
+def test_bad_h_max(h_max, match):
+    assert match in config_error(SIMPLEST + f"[analysis]\nh_max = {h_max}\n")
+
+
+def test_misspelt_h_max_key():
+    assert "[analysis]: unknown key 'hmax' (did you mean 'h_max'?)" in config_error(SIMPLEST + "[analysis]\nhmax = true\n")
+
+
+def test_h_max_is_checked_before_the_grid_size():
+    assert "count must be a positive integer" in config_error(SIMPLEST + "[analysis]\nh_max = { count = 0 }\n", max_points=2)
+
+
 # ---------------------------------------------------------------- good configs
 
 
@@ -262,6 +299,42 @@ def test_analysis_options_and_no_continuation():
     cfg = loads_config(SIMPLEST + "[analysis]\nstability = false\ncontinuation = false\nrtol = 1e-9\nmax_newton_iter = 30\n")
     assert cfg.stability is False and cfg.continuation is None
     assert cfg.solver == {"rtol": 1e-9, "max_newton_iter": 30}
+
+
+DEFAULT_H_MAX = {"step": StepDownOptions().dh, "count": StepDownOptions().count, "steps": StepDownOptions().n_steps}
+
+
+@pytest.mark.parametrize(
+    "analysis, expected",
+    [
+        ("", None),
+        ("h_max = false", None),
+        ("h_max = true", DEFAULT_H_MAX),
+        ("h_max = {}", DEFAULT_H_MAX),
+        ("h_max = { step = 0.0005, count = 40, steps = 10 }", {"step": 0.0005, "count": 40, "steps": 10}),
+        ("h_max = { step = 0.001, count = 4, steps = 3 }", {"step": 0.001, "count": 4, "steps": 3}),
+        ("h_max = { count = 4 }", {**DEFAULT_H_MAX, "count": 4}),
+        ("h_max = { step = 1 }", {**DEFAULT_H_MAX, "step": 1.0}),
+        ("h_max = { steps = 2 }", {**DEFAULT_H_MAX, "steps": 2}),
+        ("[analysis.h_max]\nstep = 0.002\ncount = 5", {**DEFAULT_H_MAX, "step": 0.002, "count": 5}),
+    ],
+    ids=["absent", "false", "true", "empty", "full", "small", "count", "int-step", "steps", "subtable"],
+)
+def test_h_max(analysis, expected):
+    cfg = loads_config(SIMPLEST + f"[analysis]\n{analysis}\n")
+    assert cfg.h_max == expected
+    if expected is not None:
+        assert isinstance(cfg.h_max["step"], float) and type(cfg.h_max["count"]) is int and type(cfg.h_max["steps"]) is int
+    assert cfg.to_dict()["analysis"]["h_max"] == (expected if expected is not None else False)
+    again = parse_config(json.loads(cfg.to_json()))
+    assert again.h_max == cfg.h_max and again.to_dict() == cfg.to_dict()
+
+
+def test_h_max_enlarges_the_size_estimate():
+    text = 'name = "a"\nmodel = "compass"\n[grid]\nm = { start = 1.0, stop = 2.0, num = 4000 }\nm_h = { start = 1.0, stop = 2.0, num = 4000 }\n'
+    message = config_error(text + "[analysis]\nh_max = true\n")
+    assert "16,000,000 points (4000 x 4000)" in message
+    assert "about 2.02 GB" in message  # (1 + 4 + 32 + 3 * 24 + 1 + 16) bytes a point
 
 
 def test_resolved_config_is_itself_a_valid_config():

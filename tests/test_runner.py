@@ -8,10 +8,11 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from jaxwalk.status import Status
+from jaxwalk.status import Status, flag_attributes
+from jaxwalk.stepdown import StepDownOptions
 from jaxwalk.sweep import ConfigError, check_results, loads_config, run_sweep
 from jaxwalk.grid import AnalysisOptions
-from jaxwalk.sweep.runner import RESULT_KEYS, analysis_options
+from jaxwalk.sweep.runner import RESULT_KEYS, STEP_DOWN_KEYS, analysis_options
 
 COMPASS_2D = """
 name = "grid2d"
@@ -48,6 +49,24 @@ def test_solver_settings_reach_the_analysis_options(tmp_path, fake_analysis):
     assert list(call["grid"]) == ["m_h", "gamma"] and call["continuation_axis"] == "gamma"
     assert call["fixed"] == {p: s.default for p, s in call["model"].param_specs.items() if p not in ("m_h", "gamma")}
     assert json.loads(results_of(path).attrs["analysis_options"])["newton"]["tol"] == 1e-7
+
+
+def test_h_max_reaches_the_analysis_options(tmp_path, fake_analysis):
+    config = loads_config(COMPASS_2D + "rtol = 1e-9\nh_max = { step = 0.002, count = 6, steps = 4 }\n")
+    options = analysis_options(config)
+    assert options.step_down == StepDownOptions(dh=0.002, count=6, n_steps=4)
+    assert options.solver.rtol == 1e-9
+    assert analysis_options(loads_config(COMPASS_2D + "h_max = true\n")).step_down == StepDownOptions()
+    assert analysis_options(loads_config(COMPASS_2D + "h_max = false\n")).step_down is None
+    assert analysis_options(loads_config(COMPASS_2D)).step_down is None
+
+    fake = fake_analysis()
+    path = run_sweep(config, tmp_path, progress=False, analyse=fake, plot=False)
+    (call,) = fake.calls
+    assert call["options"] == options
+    recorded = json.loads(results_of(path).attrs["analysis_options"])
+    assert recorded["step_down"] == {"dh": 0.002, "count": 6, "n_steps": 4}
+    assert json.loads(results_of(path).attrs["config"])["analysis"]["h_max"] == {"step": 0.002, "count": 6, "steps": 4}
 
 
 def test_progress_bar_counts_points(tmp_path, fake_analysis, capsys):
@@ -121,6 +140,111 @@ def test_missing_output_raises():
     with pytest.raises(ValueError, match="returned no speed"):
         check_results(results, (4,), 3)
     assert "speed" in RESULT_KEYS
+
+
+def step_down_results(shape=(4,), **changes):
+    """Gait OK everywhere; h_max 0, 1, 2, 3 (x 0.001), the last with no failure up to the limit."""
+    out = {
+        "h_max": np.array([0.0, 0.001, 0.002, 0.003]),
+        "step_down_status": np.array([Status.FELL, Status.FELL, Status.STALLED, Status.OK], np.int8),
+        "h_failed": np.array([0.001, 0.002, 0.003, np.nan]),
+    }
+    out.update(changes)
+    return fake_results(shape, **out)
+
+
+def test_step_down_keys_pass_through_and_are_typed():
+    out = check_results(step_down_results(step_down_status=np.array([1, 1, 2, 0])), (4,), 3, step_down=True)
+    assert out["step_down_status"].dtype == np.int8 and out["h_max"].dtype == np.float64 and out["h_failed"].dtype == np.float64
+    np.testing.assert_array_equal(out["status"], 0)
+    np.testing.assert_array_equal(out["h_max"], [0.0, 0.001, 0.002, 0.003])
+    np.testing.assert_array_equal(out["step_down_status"], [1, 1, 2, 0])
+    np.testing.assert_array_equal(out["h_failed"], [0.001, 0.002, 0.003, np.nan])
+
+
+def test_step_down_keys_ignored_without_step_down():
+    out = check_results(step_down_results(step_down_status=np.full(4, 127)), (4,), 3)
+    assert not set(STEP_DOWN_KEYS) & set(out)
+
+
+def test_no_gait_no_h_max():
+    status = np.array([0, Status.NO_CONVERGENCE, Status.FELL, 0], np.int8)
+    out = check_results(step_down_results(status=status), (4,), 3, step_down=True)
+    np.testing.assert_array_equal(np.isnan(out["h_max"]), status != 0)  # NaN exactly where there is no gait
+    np.testing.assert_array_equal(out["step_down_status"], [Status.FELL, Status.NO_CONVERGENCE, Status.FELL, Status.OK])
+    np.testing.assert_array_equal(np.isnan(out["h_failed"]), [False, True, True, True])
+
+
+def test_h_max_nan_with_gait_ok_becomes_nonfinite():
+    out = check_results(step_down_results(h_max=np.array([0.0, np.nan, 0.002, 0.003])), (4,), 3, step_down=True)
+    np.testing.assert_array_equal(out["status"], [0, Status.NONFINITE, 0, 0])
+    np.testing.assert_array_equal(out["step_down_status"], [Status.FELL, Status.NONFINITE, Status.STALLED, Status.OK])
+    assert np.isnan(out["h_max"][1]) and np.isnan(out["h_failed"][1]) and np.isnan(out["period"][1])
+    assert not np.isnan(out["h_max"][out["status"] == 0]).any()
+
+
+def test_h_failed_is_nan_where_no_drop_failed():
+    out = check_results(step_down_results(h_failed=np.array([0.001, 0.002, 0.003, 0.004])), (4,), 3, step_down=True)
+    np.testing.assert_array_equal(np.isnan(out["h_failed"]), [False, False, False, True])
+
+
+@pytest.mark.parametrize(
+    "changes, match",
+    [
+        ({"h_max": np.zeros(5)}, "'h_max' of shape \\(5,\\), expected \\(4,\\)"),
+        ({"h_failed": np.zeros((4, 1))}, "'h_failed' of shape"),
+        ({"step_down_status": np.full(4, 127, np.int8)}, "step_down_status codes \\[127\\]"),
+        ({"step_down_status": np.zeros(4)}, "'step_down_status' of dtype float64"),
+        ({"h_max": np.array([0.0, -0.001, 0.0, 0.0])}, "negative 'h_max'"),
+    ],
+)
+def test_step_down_contract_violations_raise(changes, match):
+    with pytest.raises(ValueError, match=match):
+        check_results(step_down_results(**changes), (4,), 3, step_down=True)
+
+
+def test_missing_step_down_output_raises():
+    results = step_down_results()
+    del results["h_failed"], results["step_down_status"]
+    with pytest.raises(ValueError, match="returned no step_down_status, h_failed"):
+        check_results(results, (4,), 3, step_down=True)
+
+
+def test_h_max_dataset(tmp_path, fake_analysis):
+    config = loads_config(COMPASS_2D + "h_max = { step = 0.002, count = 6, steps = 4 }\n")
+    path = run_sweep(config, tmp_path, progress=False, analyse=fake_analysis(fail_above=15.0), plot=False)
+    ds = results_of(path)
+    for name in STEP_DOWN_KEYS:
+        assert ds[name].dims == ("m_h", "gamma")
+    assert ds["step_down_status"].dtype == np.int8
+    assert ds["h_max"].dtype == np.float64 and ds["h_failed"].dtype == np.float64
+    h = ds["h_max"]
+    assert h.attrs["long_name"] == "largest survived step-down (every smaller tested drop survived)"
+    assert h.attrs["units"] == "m" and ds["h_failed"].attrs["units"] == "m"  # compass: SI lengths
+    assert h.attrs["resolution"] == 0.002 and h.attrs["limit"] == pytest.approx(0.012) and h.attrs["steps_after_drop"] == 4
+    assert "survived together with every smaller one" in h.attrs["comment"] and "4 more steps" in h.attrs["comment"]
+    for key, value in flag_attributes().items():
+        assert ds["step_down_status"].attrs[key] == value
+
+    status, drop = ds["status"].values, ds["step_down_status"].values
+    failed = ds["m_h"].values[:, None] > 15.0
+    np.testing.assert_array_equal(status != 0, np.broadcast_to(failed, status.shape))
+    np.testing.assert_array_equal(np.isnan(h.values), status != 0)  # NaN exactly where there is no gait
+    np.testing.assert_array_equal(drop[status != 0], status[status != 0])
+    ok = status == 0
+    k = np.round(h.values[ok] / 0.002)
+    np.testing.assert_allclose(h.values[ok], k * 0.002)
+    assert set(k.tolist()) == set(range(7))  # 0 .. count, both ends reached
+    assert set(drop[ok].tolist()) == {Status.OK, Status.FELL}
+    np.testing.assert_array_equal(drop[ok] == Status.OK, k == 6)
+    np.testing.assert_allclose(ds["h_failed"].values[ok & (drop != 0)], h.values[ok & (drop != 0)] + 0.002)
+    assert np.isnan(ds["h_failed"].values[~ok | (drop == 0)]).all()
+
+
+def test_no_h_max_no_step_down_variables(tmp_path, fake_analysis):
+    ds = results_of(run_sweep(loads_config(COMPASS_2D), tmp_path, progress=False, analyse=fake_analysis(), plot=False))
+    assert not set(STEP_DOWN_KEYS) & set(ds.variables)
+    assert json.loads(ds.attrs["analysis_options"])["step_down"] is None
 
 
 def test_nan_with_ok_end_to_end(tmp_path, fake_analysis):

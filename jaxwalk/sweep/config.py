@@ -11,6 +11,7 @@ Cartesian grid (see ``docs/sweeps.md``)::
     [analysis]
     stability = true
     continuation = "gamma"
+    h_max = { step = 0.0005, count = 40, steps = 10 }   # global stability; optional
 
 Everything is checked here, before anything is computed or written: every
 problem is a :class:`ConfigError` whose message is one line naming the file,
@@ -41,7 +42,9 @@ TOP_LEVEL_KEYS = ("name", "model", *SECTIONS)
 AXIS_KEYS = ("start", "stop", "num", "values")
 #: Solver settings passed through to the analysis when set (absent: its defaults).
 SOLVER_KEYS = ("rtol", "atol", "newton_tol", "max_newton_iter")
-ANALYSIS_KEYS = ("stability", "continuation", *SOLVER_KEYS)
+ANALYSIS_KEYS = ("stability", "continuation", "h_max", *SOLVER_KEYS)
+#: Keys of ``[analysis] h_max`` and the :class:`jaxwalk.stepdown.StepDownOptions` fields they set.
+H_MAX_KEYS = {"step": "dh", "count": "count", "steps": "n_steps"}
 
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*\Z")
 
@@ -80,6 +83,10 @@ class SweepConfig:
         continuation: the axis along which Newton warm-starts from its converged
             neighbour, or ``None`` for independent points.
         solver: the solver settings of ``[analysis]`` that were given.
+        h_max: the global-stability test (the largest survived step-down), resolved
+            with its defaults: ``{"step": float, "count": int, "steps": int}``
+            (resolution in model length units, drops tried ``step, 2 step, ...,
+            count * step``, steps to survive after the drop), or ``None`` when off.
         source: where the config came from (a path, or a label).
         text: the TOML source, when read from text.
     """
@@ -92,6 +99,7 @@ class SweepConfig:
     stability: bool = True
     continuation: str | None = None
     solver: dict[str, float | int] = dataclasses.field(default_factory=dict)
+    h_max: dict[str, float | int] | None = None
     source: str = "<config>"
     text: str | None = None
 
@@ -116,7 +124,8 @@ class SweepConfig:
         """The resolved config, itself a valid config (TOML/JSON-ready).
 
         ``params`` holds every fixed value, defaults included; ``continuation`` is
-        the axis used, or ``False``.
+        the axis used, or ``False``; ``h_max`` the step-down settings with their
+        defaults, or ``False``.
         """
         return {
             "name": self.name,
@@ -126,6 +135,7 @@ class SweepConfig:
             "analysis": {
                 "stability": self.stability,
                 "continuation": self.continuation if self.continuation is not None else False,
+                "h_max": dict(self.h_max) if self.h_max is not None else False,
                 **self.solver,
             },
         }
@@ -209,9 +219,9 @@ def parse_config(
     axis_specs = {
         axis: _axis_spec(axis, spec, specs, params, model_name, fail) for axis, spec in axes_raw.items()
     }
-    _check_size(axis_specs, len(model.section_names), max_points, fail)
+    stability, continuation, solver, h_max = _analysis(data.get("analysis", {}), list(axis_specs), fail)
+    _check_size(axis_specs, len(model.section_names), max_points, fail, h_max=h_max is not None)
     axes = tuple(_axis(axis, spec) for axis, spec in axis_specs.items())
-    stability, continuation, solver = _analysis(data.get("analysis", {}), axes, fail)
 
     fixed = {p: spec.default for p, spec in specs.items() if p not in axis_specs}
     fixed.update(params)
@@ -224,6 +234,7 @@ def parse_config(
         stability=stability,
         continuation=continuation,
         solver=solver,
+        h_max=h_max,
         source=source,
         text=text,
     )
@@ -316,19 +327,19 @@ def _axis(name: str, spec: dict[str, Any]) -> GridAxis:
     return GridAxis(name, values, spec)
 
 
-def _check_size(axis_specs, n_v, max_points, fail) -> None:
+def _check_size(axis_specs, n_v, max_points, fail, *, h_max: bool = False) -> None:
     lengths = [len(s["values"]) if "values" in s else s["num"] for s in axis_specs.values()]
     n = math.prod(lengths)
     if n > max_points:
         shape = " x ".join(str(k) for k in lengths)
         raise fail(
             f"[grid] has {n:,} points ({shape}), more than the limit of {max_points:,}; "
-            f"its results alone would take about {_human_bytes(n * result_bytes_per_point(n_v))} "
+            f"its results alone would take about {_human_bytes(n * result_bytes_per_point(n_v, h_max=h_max))} "
             "(shrink the grid or raise the limit, --max-points)"
         )
 
 
-def _analysis(table, axes, fail) -> tuple[bool, str | None, dict[str, float | int]]:
+def _analysis(table, names, fail) -> tuple[bool, str | None, dict[str, float | int], dict[str, float | int] | None]:
     for key in table:
         if key not in ANALYSIS_KEYS:
             raise fail(f"[analysis]: unknown key '{key}'{_did_you_mean(key, ANALYSIS_KEYS)} (allowed: {', '.join(ANALYSIS_KEYS)})")
@@ -336,7 +347,6 @@ def _analysis(table, axes, fail) -> tuple[bool, str | None, dict[str, float | in
     if not isinstance(stability, bool):
         raise fail(f"[analysis]: stability must be true or false, got {stability!r}")
 
-    names = [a.name for a in axes]
     continuation = table.get("continuation", True)
     if continuation is True:
         continuation = names[0]
@@ -360,20 +370,54 @@ def _analysis(table, axes, fail) -> tuple[bool, str | None, dict[str, float | in
                 raise fail(f"[analysis]: {key} must be a positive number, got {value!r}")
             value = float(value)
         solver[key] = value
-    return stability, continuation, solver
+    return stability, continuation, solver, _h_max(table.get("h_max", False), fail)
+
+
+def _h_max(value, fail) -> dict[str, float | int] | None:
+    """``[analysis] h_max``: ``false`` (off), ``true`` (the defaults) or a table of
+    ``step``/``count``/``steps``, each optional; resolved with the defaults of
+    :class:`jaxwalk.stepdown.StepDownOptions` (imported only when asked for)."""
+    where = "[analysis] h_max"
+    if value is False:
+        return None
+    if value is not True and not isinstance(value, Mapping):
+        raise fail(
+            f"{where} must be true, false or a table {{ step = .., count = .., steps = .. }}, got {value!r}"
+        )
+    table = {} if value is True else value
+    for key in table:
+        if key not in H_MAX_KEYS:
+            raise fail(f"{where}: unknown key '{key}'{_did_you_mean(key, H_MAX_KEYS)} (allowed: {', '.join(H_MAX_KEYS)})")
+    step = table.get("step")
+    if step is not None and (isinstance(step, bool) or not isinstance(step, (int, float)) or not (0 < step < math.inf)):
+        raise fail(f"{where}: step must be a positive number (the resolution, in model length units), got {step!r}")
+    for key, meaning in (("count", "drops tried: step, 2 step, ..., count * step"), ("steps", "steps to survive after the drop")):
+        n = table.get(key)
+        if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < 1):
+            raise fail(f"{where}: {key} must be a positive integer ({meaning}), got {n!r}")
+
+    from jaxwalk.stepdown import StepDownOptions
+
+    defaults = StepDownOptions()
+    return {
+        "step": float(table.get("step", defaults.dh)),
+        "count": int(table.get("count", defaults.count)),
+        "steps": int(table.get("steps", defaults.n_steps)),
+    }
 
 
 # ---------------------------------------------------------------- helpers
 
 
-def result_bytes_per_point(n_v: int) -> int:
+def result_bytes_per_point(n_v: int, *, h_max: bool = False) -> int:
     """Bytes one grid point takes in the dataset (see :mod:`jaxwalk.sweep.dataset`).
 
     status int8, newton_iterations int32, lambda_max, period, step_length, speed
     float64, and per section coordinate a fixed-point float64 and an eigenvalue
-    (real and imaginary float64).
+    (real and imaginary float64); with ``h_max`` also step_down_status int8 and
+    h_max, h_failed float64.
     """
-    return 1 + 4 + 4 * 8 + n_v * (8 + 16)
+    return 1 + 4 + 4 * 8 + n_v * (8 + 16) + ((1 + 2 * 8) if h_max else 0)
 
 
 def _unknown_param(key: str, specs: Mapping[str, ParamSpec], model: str) -> str:

@@ -8,9 +8,13 @@ parameter, in config order) and ``n_v = len(model.section_names)``:
 * ``eigenvalues_real``, ``eigenvalues_imag`` ``S + (eigen,)``;
 * ``fixed_point`` ``S + (section,)``, in section coordinates;
 * ``period``, ``step_length``, ``speed`` ``S``, in the model's units;
-* ``newton_iterations`` ``S``, int32.
+* ``newton_iterations`` ``S``, int32;
+* with ``[analysis] h_max`` (global stability, :mod:`jaxwalk.stepdown`): ``h_max``
+  ``S``, the largest survived step-down, in model length units;
+  ``step_down_status`` ``S``, int8 with CF flag attributes; ``h_failed`` ``S``.
 
-Where ``status != 0`` every float variable is NaN; a NaN never comes with status 0.
+Where ``status != 0`` every float variable is NaN; a NaN never comes with status 0
+(``h_failed`` excepted: it is NaN where no drop failed up to the limit).
 """
 
 from __future__ import annotations
@@ -152,6 +156,8 @@ def build_dataset(
             {"long_name": "Newton iterations used to find the fixed point", "units": "1"},
         ),
     }
+    if config.h_max is not None:
+        data_vars.update(step_down_variables(config.h_max, dims, results, units["length"]))
 
     versions = package_versions()
     attrs = {
@@ -176,6 +182,63 @@ def build_dataset(
         **{f"{name}_version": v for name, v in versions.items()},
     }
     return xr.Dataset(data_vars, coords=coords, attrs=attrs)
+
+
+def step_down_variables(
+    h_max: Mapping[str, float | int], dims: tuple[str, ...], results: Mapping[str, np.ndarray], length: str
+) -> dict[str, tuple]:
+    """``h_max``, ``step_down_status`` and ``h_failed`` with their attributes.
+
+    Args:
+        h_max: the resolved ``[analysis] h_max`` (``step``, ``count``, ``steps``).
+        dims: the grid's dimensions.
+        results: checked analysis output with the step-down keys.
+        length: the model's length unit.
+    """
+    step, count, steps = float(h_max["step"]), int(h_max["count"]), int(h_max["steps"])
+    limit = count * step
+    comment = (
+        f"From the periodic gait, the ground is lowered by h (a vertical drop, slope unchanged) at the "
+        f"next touchdown and the walker must then complete {steps} more steps. Drops h = k * {step:g} "
+        f"(k = 1, ..., {count}) are tried in increasing order until one fails; h_max is the largest "
+        f"tried drop survived together with every smaller one: 0 if the smallest drop ({step:g}) "
+        f"already fails, {limit:g} (the limit) if none failed up to it (a lower bound, not "
+        "extrapolated). Survival need not be monotone in h, so a drop larger than h_failed might "
+        "be survived; the search does not look past it. NaN where no gait was found (status != 0)."
+    )
+    return {
+        "h_max": (
+            dims,
+            results["h_max"],
+            {
+                "long_name": "largest survived step-down (every smaller tested drop survived)",
+                "units": length,
+                "resolution": step,
+                "limit": limit,
+                "steps_after_drop": steps,
+                "comment": comment,
+            },
+        ),
+        "step_down_status": (
+            dims,
+            results["step_down_status"],
+            {
+                "long_name": (
+                    "outcome of the step-down search: status of the first failed drop (0: no drop failed "
+                    "up to the limit; where no gait was found, the gait's status)"
+                ),
+                **flag_attributes(),
+            },
+        ),
+        "h_failed": (
+            dims,
+            results["h_failed"],
+            {
+                "long_name": "height of the first failed drop, h_max + resolution (NaN if none failed up to the limit)",
+                "units": length,
+            },
+        ),
+    }
 
 
 def write_zarr(ds: xr.Dataset, target: str | Path, *, overwrite: bool = False) -> Path:

@@ -13,8 +13,13 @@ from ``[analysis]`` (:func:`analysis_options`), and ``progress`` a callable
 taking the number of grid points just finished. For grid shape ``S`` it returns
 ``status`` (int, ``S``), ``lambda_max``, ``period``, ``step_length``, ``speed``,
 ``newton_iterations`` (``S``), ``eigenvalues`` (complex, ``S + (n_v,)``) and
-``fixed_point`` (``S + (n_v,)``); other keys are ignored. The analysis owns
-batching, chunking and devices; :func:`check_results` holds it to this contract.
+``fixed_point`` (``S + (n_v,)``); when ``options.step_down`` is set (``[analysis]
+h_max``) also ``h_max`` (float, ``S``; NaN where no gait), ``step_down_status``
+(int, ``S``; the first failed drop's status, ``OK`` if none failed up to the
+limit, the gait's status where there is no gait) and ``h_failed`` (float, ``S``;
+the first failed drop's height, NaN if none); other keys are ignored. The
+analysis owns batching, chunking and devices; :func:`check_results` holds it to
+this contract.
 """
 
 from __future__ import annotations
@@ -47,6 +52,8 @@ RESULT_KEYS = {
     "newton_iterations": False,
 }
 _FLOATS = ("lambda_max", "eigenvalues", "fixed_point", "period", "step_length", "speed")
+#: Result arrays of the step-down test (``[analysis] h_max``), all of the grid's shape.
+STEP_DOWN_KEYS = ("h_max", "step_down_status", "h_failed")
 _VALID_CODES = np.array([int(s) for s in DATASET_STATUSES])
 #: ``[analysis]`` keys and the ``NewtonOptions`` / ``SolverOptions`` fields they set.
 _NEWTON_FIELDS = {"newton_tol": "tol", "max_newton_iter": "max_iter"}
@@ -95,7 +102,9 @@ def run_sweep(
 
     with tqdm(total=config.n_points, unit="pt", desc=config.name, disable=not progress) as bar:
         results = analyse(model, dict(config.fixed), config.grid, config.continuation, options, progress=bar.update)
-    results = check_results(results, config.shape, len(model.section_names), stability=config.stability)
+    results = check_results(
+        results, config.shape, len(model.section_names), stability=config.stability, step_down=config.h_max is not None
+    )
 
     from jaxwalk.sweep.dataset import build_dataset, write_zarr
 
@@ -113,13 +122,19 @@ def run_sweep(
 
 def analysis_options(config: SweepConfig):
     """The :class:`jaxwalk.grid.AnalysisOptions` of ``config``: its defaults, updated
-    by the solver settings ``[analysis]`` gives."""
+    by the solver settings ``[analysis]`` gives, with ``step_down`` set from
+    ``[analysis] h_max`` when it is on."""
     from jaxwalk.grid import AnalysisOptions
 
     base = AnalysisOptions()
     solver = dataclasses.replace(base.solver, **{_SOLVER_FIELDS[k]: v for k, v in config.solver.items() if k in _SOLVER_FIELDS})
     newton = dataclasses.replace(base.newton, **{_NEWTON_FIELDS[k]: v for k, v in config.solver.items() if k in _NEWTON_FIELDS})
-    return dataclasses.replace(base, solver=solver, newton=newton)
+    step_down = None
+    if config.h_max is not None:
+        from jaxwalk.stepdown import StepDownOptions
+
+        step_down = StepDownOptions(dh=config.h_max["step"], count=config.h_max["count"], n_steps=config.h_max["steps"])
+    return dataclasses.replace(base, solver=solver, newton=newton, step_down=step_down)
 
 
 def _as_attribute(options) -> dict:
@@ -152,7 +167,12 @@ def check_output(out_dir: str | os.PathLike, name: str, *, overwrite: bool = Fal
 
 
 def check_results(
-    results: Mapping[str, np.ndarray], shape: tuple[int, ...], n_v: int, *, stability: bool = True
+    results: Mapping[str, np.ndarray],
+    shape: tuple[int, ...],
+    n_v: int,
+    *,
+    stability: bool = True,
+    step_down: bool = False,
 ) -> dict[str, np.ndarray]:
     """Check the analysis output against the contract and make its failures explicit.
 
@@ -162,37 +182,54 @@ def check_results(
     floats NaN. Without ``stability``, ``lambda_max`` and the eigenvalues are
     not required and are written as NaN.
 
+    With ``step_down`` (``[analysis] h_max``) the :data:`STEP_DOWN_KEYS` are
+    required too (a negative ``h_max`` is a ``ValueError``): ``h_max`` is one
+    of the numbers that must exist where the gait's ``status`` is 0 (a NaN there
+    makes the point ``NONFINITE``) and is NaN exactly where ``status != 0``;
+    there ``step_down_status`` is the gait's status and ``h_failed`` NaN, as it
+    is wherever ``step_down_status`` is 0 (no drop failed). Without
+    ``step_down`` those keys are ignored.
+
     Returns:
         New arrays: status int8, newton_iterations int32, eigenvalues complex128,
-        the rest float64.
+        the rest float64; with ``step_down`` also step_down_status int8, h_max
+        and h_failed float64.
     """
-    missing = [k for k in RESULT_KEYS if k not in results]
+    keys = list(RESULT_KEYS) + (list(STEP_DOWN_KEYS) if step_down else [])
+    missing = [k for k in keys if k not in results]
     if missing:
         raise ValueError(f"the analysis returned no {', '.join(missing)}")
     out = {}
-    for key, per_section in RESULT_KEYS.items():
+    for key in keys:
         value = np.asarray(results[key])
-        expected = shape + ((n_v,) if per_section else ())
+        expected = shape + ((n_v,) if RESULT_KEYS.get(key, False) else ())
         if value.shape != expected:
             raise ValueError(f"the analysis returned '{key}' of shape {value.shape}, expected {expected}")
         out[key] = value
-    status = out["status"]
-    if not np.issubdtype(status.dtype, np.integer):
-        raise ValueError(f"the analysis returned 'status' of dtype {status.dtype}, expected an integer type")
-    bad = ~np.isin(status, _VALID_CODES)
-    if bad.any():
-        raise ValueError(f"the analysis returned status codes {sorted(set(status[bad].tolist()))}, not dataset statuses")
-    status = status.astype(np.int8)
+    for key in ("status", "step_down_status") if step_down else ("status",):
+        codes = out[key]
+        if not np.issubdtype(codes.dtype, np.integer):
+            raise ValueError(f"the analysis returned '{key}' of dtype {codes.dtype}, expected an integer type")
+        bad = ~np.isin(codes, _VALID_CODES)
+        if bad.any():
+            raise ValueError(f"the analysis returned {key} codes {sorted(set(codes[bad].tolist()))}, not dataset statuses")
+    status = out["status"].astype(np.int8)
+    if step_down:
+        for key in ("h_max", "h_failed"):
+            out[key] = out[key].astype(np.float64)
+        if (out["h_max"] < 0).any():
+            raise ValueError("the analysis returned a negative 'h_max'")
     out["eigenvalues"] = out["eigenvalues"].astype(np.complex128)
     for key in ("lambda_max", "fixed_point", "period", "step_length", "speed"):
         out[key] = out[key].astype(np.float64)
     out["newton_iterations"] = out["newton_iterations"].astype(np.int32)
 
     required = ["fixed_point", "period", "step_length", "speed"] + (["lambda_max", "eigenvalues"] if stability else [])
+    required += ["h_max"] if step_down else []
     finite = np.ones(shape, bool)
     for key in required:
         ok = np.isfinite(out[key])
-        finite &= ok.all(axis=-1) if RESULT_KEYS[key] else ok
+        finite &= ok.all(axis=-1) if RESULT_KEYS.get(key, False) else ok
     status = np.where((status == Status.OK) & ~finite, np.int8(Status.NONFINITE), status).astype(np.int8)
     if not stability:  # not asked for: absent, whatever the analysis computed
         out["lambda_max"] = np.full(shape, np.nan)
@@ -203,4 +240,9 @@ def check_results(
         nan = complex(np.nan, np.nan) if key == "eigenvalues" else np.nan
         out[key] = np.where(mask, nan, out[key])
     out["status"] = status
+    if step_down:  # no gait, no step-down: its status is the gait's
+        out["h_max"] = np.where(failed, np.nan, out["h_max"])
+        drop_status = np.where(failed, status, out["step_down_status"]).astype(np.int8)
+        out["step_down_status"] = drop_status
+        out["h_failed"] = np.where(failed | (drop_status == Status.OK), np.nan, out["h_failed"])
     return out
