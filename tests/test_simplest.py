@@ -112,3 +112,16 @@ def test_failed_search_is_a_status_not_a_number():
     out = analyse_grid(MODEL, {}, {"gamma": np.array([-0.01])}, continuation_axis=None)
     assert out["status"][0] != 0
     assert np.isnan(out["lambda_max"][0]) and np.all(np.isnan(out["fixed_point"][0]))
+
+
+@pytest.mark.parametrize("gamma", [0.004, 0.012])
+def test_matches_independent_scipy_implementation(gamma):
+    """Garcia's exact beta -> 0 equations in SciPy (DOP853) against the engine."""
+    from tests.reference import scipy_walkers as ref
+
+    ours = analyse_grid(MODEL, {}, {"gamma": np.array([gamma])})
+    theirs = ref.simplest_fixed_point(gamma)
+    assert ours["status"][0] == 0 and theirs.status == "ok"
+    np.testing.assert_allclose(ours["fixed_point"][0], theirs.v, atol=1e-8)
+    np.testing.assert_allclose(ours["lambda_max"][0], theirs.lambda_max, atol=1e-6)
+    np.testing.assert_allclose(ours["period"][0], theirs.step_info["step_time"], atol=1e-8)
