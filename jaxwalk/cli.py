@@ -2,6 +2,8 @@
 
 Commands:
     sweep CONFIG.toml --out DIR   run a config-driven sweep (docs/sweeps.md)
+    simulate CONFIG.toml --steps N --out DIR [--drop H]
+                                  walk N steps, record the trajectory, draw it (docs/simulate.md)
 
 Each command is a small function ``cmd_<name>(args) -> exit status`` with its
 own ``add_<name>`` that declares its arguments; :func:`build_parser` lists
@@ -77,10 +79,49 @@ def _status_summary(path) -> str:
     return f"{total} points, " + ", ".join(f"{int(n)} {describe(c)}" for c, n in zip(codes, counts))
 
 
+# ---------------------------------------------------------------- simulate
+
+
+def add_simulate(sub) -> None:
+    p = sub.add_parser(
+        "simulate", help="walk N steps from the periodic gait; record and draw the trajectory", description=cmd_simulate.__doc__
+    )
+    p.add_argument("config", metavar="CONFIG.toml", help="model and parameters, optional [simulate] (see docs/simulate.md)")
+    p.add_argument("--steps", type=_positive_int, default=None, metavar="N", help="steps to walk (overrides [simulate] steps)")
+    p.add_argument("--out", required=True, metavar="DIR", help="output directory; the dataset is DIR/<name>_trajectory.zarr")
+    p.add_argument(
+        "--drop", type=float, default=None, metavar="H",
+        help="step-down of height H (vertical, model length units) at the first touchdown (overrides [simulate] drop)",
+    )
+    p.add_argument("--no-gif", action="store_true", help="no animation DIR/<name>_walk.gif")
+    p.add_argument("--no-plot", action="store_true", help="no figures DIR/<name>_stick.png, DIR/<name>_timeseries.png")
+    p.add_argument("--overwrite", action="store_true", help="replace existing outputs of the same name")
+    p.set_defaults(run=cmd_simulate)
+
+
+def cmd_simulate(args: argparse.Namespace) -> int:
+    """Walk N steps of the model in CONFIG.toml from its periodic gait (or [simulate] v0),
+    optionally with a step-down at the first touchdown; write DIR/<name>_trajectory.zarr,
+    a stick diagram and time series (PNG) and an animated GIF."""
+    from jaxwalk.simulate import load_simulate_config, run_simulation
+    from jaxwalk.status import describe
+
+    config = load_simulate_config(args.config, steps=args.steps, drop=args.drop)
+    paths, traj = run_simulation(  # checks --out before computing anything
+        config, args.out, plot=not args.no_plot, gif=not args.no_gif, overwrite=args.overwrite, command=args.command_line
+    )
+    outcome = f"{traj.steps_completed} of {config.steps} steps"
+    if traj.status != 0:
+        outcome += f", then {describe(traj.status)} in step {traj.steps_completed}"
+    others = ", ".join(str(p) for key, p in paths.items() if key != "dataset")
+    print(f"wrote {paths['dataset']}: {outcome}, {len(traj.time)} samples" + (f"; {others}" if others else ""))
+    return EXIT_OK
+
+
 # ---------------------------------------------------------------- parser
 
 #: The commands, in the order ``--help`` lists them.
-COMMANDS: tuple[Callable, ...] = (add_sweep,)
+COMMANDS: tuple[Callable, ...] = (add_sweep, add_simulate)
 
 
 def build_parser() -> argparse.ArgumentParser:

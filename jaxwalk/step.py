@@ -38,6 +38,8 @@ class SolverOptions:
         max_events: events allowed per step before ``TOO_MANY_EVENTS``.
         phase_time_limit: longest phase, in units of the model's ``time_scale``,
             before ``TIMEOUT``.
+        start_guard_margin: a guard below ``-start_guard_margin`` when a phase
+            starts is an event at once (see :func:`run_step`).
         solver: ``"dopri8"`` (default; 7th-order dense output keeps event times
             accurate at loose steps) or ``"tsit5"``.
     """
@@ -48,6 +50,7 @@ class SolverOptions:
     max_solver_steps: int = 2048
     max_events: int = 16
     phase_time_limit: float = 12.0
+    start_guard_margin: float = 1e-9
     solver: str = "dopri8"
 
     def make_solver(self):
@@ -123,7 +126,16 @@ def run_step(model: Walker, params, y0: Array, phase0: Array, ctx0: Array, opts:
 
     def body(carry):
         t, y, phase, ctx, length, status, n_events = carry
+        # A guard already negative when a phase starts never "crosses" zero, and
+        # while it is the smallest it hides every other guard: treat it as an
+        # event at the phase's start (a swing foot landing behind the hip after a
+        # large drop, a knee that must already pull). The margin keeps a guard
+        # that ended the previous phase (zero to root-finding accuracy) quiet.
+        at_start = jnp.min(model.guard_values(t, y, params, phase, ctx)) < -opts.start_guard_margin
         t_event, y_event, result = _solve_phase(model, params, y, phase, ctx, t, opts)
+        t_event = jnp.where(at_start, t, t_event)
+        y_event = jnp.where(at_start, y, y_event)
+        result = diffrax.RESULTS.where(at_start, diffrax.RESULTS.event_occurred, result)
         guards = model.guard_values(t_event, y_event, params, phase, ctx)
         which = jnp.argmin(guards)
         tr = model.on_event(which, t_event, y_event, params, phase, ctx)

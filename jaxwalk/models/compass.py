@@ -142,7 +142,11 @@ class CompassWalker(Walker):
         heel_status = jnp.where(ahead, Status.IN_PROGRESS, Status.SCUFFING)
         # At mid-stance a swing leg still behind the stance leg must cross it
         # later, below the hip: its foot meets the ground at the stance foot.
-        mid_status = jnp.where(q[3] > q[2], Status.IN_PROGRESS, Status.SCUFFING)
+        # At t = 0 (the step's start) it means the new stance foot landed behind
+        # the hip (after a large drop): the walker pitches forward, a fall.
+        mid_status = jnp.where(
+            t <= 0.0, Status.FELL, jnp.where(q[3] > q[2], Status.IN_PROGRESS, Status.SCUFFING)
+        )
         status = jnp.select(
             [guard == HEEL_STRIKE, guard == STALL, guard == MIDSTANCE],
             [heel_status, Status.STALLED, mid_status],
@@ -170,3 +174,16 @@ class CompassWalker(Walker):
         # this config's natural frequency sqrt(g / l).
         omega = 1.0 / (self.time_scale(params) * jnp.sqrt(9.81))
         return jnp.stack([0.271 * jnp.ones_like(omega), -1.092 * omega, -0.377 * omega])
+
+    # ------------------------------------------------------------ drawing
+    def skeleton(self, q, params, ctx):
+        """``(2, 2, 2)`` polylines of leg 1 (stance) and leg 2 (swing), hip to foot,
+        in the slope frame (for figures; :mod:`jaxwalk.figures`)."""
+        hip = q[:2]
+        feet = self.feet(q, params)
+        return jnp.stack([jnp.stack([hip, feet[0]]), jnp.stack([hip, feet[1]])])
+
+    def foot_points(self, q, params, ctx):
+        """``(2, 1, 2)`` the points of foot 1 and foot 2 that can touch the ground
+        (point feet), in the slope frame (for foot clearance)."""
+        return self.feet(q, params)[:, None, :]

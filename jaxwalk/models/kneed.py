@@ -294,6 +294,20 @@ class KneedWalker(Walker):
         omega = 1.0 / self.time_scale(params)
         return jnp.stack([jnp.asarray(0.2385), -0.3542 * omega, -0.0184 * omega])
 
+    # ------------------------------------------------------------ drawing
+    def skeleton(self, q, params, ctx):
+        """``(2, 3, 2)`` polylines of leg 1 (stance) and leg 2 (swing): hip, knee,
+        foot, in the slope frame (for figures; :mod:`jaxwalk.figures`)."""
+        hip = q[:2]
+        knees = self.knees(q, params)
+        feet = self.feet(q, params)
+        return jnp.stack([jnp.stack([hip, knees[i], feet[i]]) for i in range(2)])
+
+    def foot_points(self, q, params, ctx):
+        """``(2, 1, 2)`` the points of foot 1 and foot 2 that can touch the ground
+        (point feet), in the slope frame (for foot clearance)."""
+        return self.feet(q, params)[:, None, :]
+
 
 class KneedStopWalker(KneedWalker):
     """The kneed walker whose stance knee is held by a bare stop, not a latch:

@@ -149,6 +149,16 @@ class SweepConfig:
 
 def load_config(path: str | Path, *, max_points: int = DEFAULT_MAX_POINTS) -> SweepConfig:
     """Read and check the TOML config at ``path``. Raises :class:`ConfigError`."""
+    return loads_config(read_config_text(path), source=str(path), max_points=max_points)
+
+
+def loads_config(text: str, *, source: str = "<config>", max_points: int = DEFAULT_MAX_POINTS) -> SweepConfig:
+    """Parse and check a config from TOML text. Raises :class:`ConfigError`."""
+    return parse_config(parse_toml(text, source=source), source=source, text=text, max_points=max_points)
+
+
+def read_config_text(path: str | Path) -> str:
+    """The text of the config file at ``path`` (UTF-8). Raises :class:`ConfigError`."""
     try:
         raw = Path(path).read_bytes()
     except FileNotFoundError:
@@ -158,20 +168,18 @@ def load_config(path: str | Path, *, max_points: int = DEFAULT_MAX_POINTS) -> Sw
     except OSError as err:
         raise ConfigError(f"cannot read config file '{path}': {err.strerror or err}") from None
     try:
-        text = raw.decode("utf-8")
+        return raw.decode("utf-8")
     except UnicodeDecodeError:
         raise ConfigError(f"{path}: not a UTF-8 text file") from None
-    return loads_config(text, source=str(path), max_points=max_points)
 
 
-def loads_config(text: str, *, source: str = "<config>", max_points: int = DEFAULT_MAX_POINTS) -> SweepConfig:
-    """Parse and check a config from TOML text. Raises :class:`ConfigError`."""
+def parse_toml(text: str, *, source: str = "<config>") -> dict[str, Any]:
+    """TOML text as a dict. Raises :class:`ConfigError` (one line, with the position)."""
     try:
-        data = tomllib.loads(text)
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
         # tomllib's message carries "(at line L, column C)".
         raise ConfigError(f"{source}: invalid TOML: {_one_line(err)}") from None
-    return parse_config(data, source=source, text=text, max_points=max_points)
 
 
 def parse_config(
