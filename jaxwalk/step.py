@@ -110,6 +110,87 @@ def _solve_phase(model: Walker, params, y, phase, ctx, t0, opts: SolverOptions):
     return sol.ts[-1], sol.ys[-1], sol.result
 
 
+class PhaseEnd(NamedTuple):
+    """How a phase ended (:func:`end_phase`).
+
+    Attributes:
+        t_event: event time (the phase's start time where a guard was already past).
+        y_event: ``(2 n_q,)`` state at the event, before the reset.
+        guard: int32 index of the smallest guard at the event (the one that fired).
+        event_happened: bool, the phase ended with an event (not the time limit
+            or a solver failure).
+        y_next, phase_next, ctx_next: the state after the reset; the state at the
+            event where there was no event or the reset is not finite.
+        shift: distance the stance foot moved in the reset (0 without one).
+        step_done: bool, the reset ended the step.
+        status: int8 :class:`~jaxwalk.status.Status` after the event
+            (``IN_PROGRESS`` while the step goes on).
+        n_events: events in the step, this one included.
+    """
+
+    t_event: Array
+    y_event: Array
+    guard: Array
+    event_happened: Array
+    y_next: Array
+    phase_next: Array
+    ctx_next: Array
+    shift: Array
+    step_done: Array
+    status: Array
+    n_events: Array
+
+
+def end_phase(model: Walker, params, t0, y0, phase, ctx, solved, n_events, opts: SolverOptions) -> PhaseEnd:
+    """The event that ended a phase started at ``(t0, y0, phase, ctx)``, the model's
+    reset and the status rules: the body of :func:`run_step`'s loop after the solve,
+    shared with the recorder (:mod:`jaxwalk.simulate.recorder`).
+
+    Args:
+        solved: ``(t_event, y_event, result)`` of the phase's ``diffeqsolve`` (:func:`_solve_phase`).
+        n_events: events in the step before this one.
+    """
+    in_progress = jnp.asarray(Status.IN_PROGRESS, jnp.int8)
+    t_event, y_event, result = solved
+    # A guard already negative when a phase starts never "crosses" zero, and
+    # while it is the smallest it hides every other guard: treat it as an
+    # event at the phase's start (a swing foot landing behind the hip after a
+    # large drop, a knee that must already pull). The margin keeps a guard
+    # that ended the previous phase (zero to root-finding accuracy) quiet.
+    at_start = jnp.min(model.guard_values(t0, y0, params, phase, ctx)) < -opts.start_guard_margin
+    t_event = jnp.where(at_start, t0, t_event)
+    y_event = jnp.where(at_start, y0, y_event)
+    result = diffrax.RESULTS.where(at_start, diffrax.RESULTS.event_occurred, result)
+    guards = model.guard_values(t_event, y_event, params, phase, ctx)
+    which = jnp.argmin(guards)
+    tr = model.on_event(which, t_event, y_event, params, phase, ctx)
+    step_status = jnp.where(tr.step_done & (tr.status == in_progress), jnp.int8(Status.OK), tr.status)
+    n_events = n_events + 1
+    # Solver outcome overrides the model's reading of the event.
+    event_happened = result == diffrax.RESULTS.event_occurred
+    reached_t1 = result == diffrax.RESULTS.successful
+    new_status = jnp.where(event_happened, step_status, jnp.where(reached_t1, jnp.int8(Status.TIMEOUT), jnp.int8(Status.SOLVER_FAILED)))
+    finite = jnp.all(jnp.isfinite(tr.y)) & jnp.isfinite(t_event)
+    new_status = jnp.where(finite, new_status, jnp.int8(Status.NONFINITE))
+    new_status = jnp.where(
+        (new_status == in_progress) & (n_events >= opts.max_events), jnp.int8(Status.TOO_MANY_EVENTS), new_status
+    )
+    keep = event_happened & finite
+    return PhaseEnd(
+        t_event=t_event,
+        y_event=y_event,
+        guard=which.astype(jnp.int32),
+        event_happened=event_happened,
+        y_next=jnp.where(keep, tr.y, y_event),
+        phase_next=jnp.where(keep, tr.phase, phase).astype(jnp.int32),
+        ctx_next=jnp.where(keep, tr.ctx, ctx),
+        shift=jnp.where(keep, tr.shift, 0.0),
+        step_done=tr.step_done & keep,
+        status=new_status.astype(jnp.int8),
+        n_events=n_events,
+    )
+
+
 def run_step(model: Walker, params, y0: Array, phase0: Array, ctx0: Array, opts: SolverOptions = SolverOptions()) -> StepResult:
     """Run one step from a full state. Pure; ``jit``/``vmap``/``jacfwd`` ready.
 
@@ -126,40 +207,9 @@ def run_step(model: Walker, params, y0: Array, phase0: Array, ctx0: Array, opts:
 
     def body(carry):
         t, y, phase, ctx, length, status, n_events = carry
-        # A guard already negative when a phase starts never "crosses" zero, and
-        # while it is the smallest it hides every other guard: treat it as an
-        # event at the phase's start (a swing foot landing behind the hip after a
-        # large drop, a knee that must already pull). The margin keeps a guard
-        # that ended the previous phase (zero to root-finding accuracy) quiet.
-        at_start = jnp.min(model.guard_values(t, y, params, phase, ctx)) < -opts.start_guard_margin
-        t_event, y_event, result = _solve_phase(model, params, y, phase, ctx, t, opts)
-        t_event = jnp.where(at_start, t, t_event)
-        y_event = jnp.where(at_start, y, y_event)
-        result = diffrax.RESULTS.where(at_start, diffrax.RESULTS.event_occurred, result)
-        guards = model.guard_values(t_event, y_event, params, phase, ctx)
-        which = jnp.argmin(guards)
-        tr = model.on_event(which, t_event, y_event, params, phase, ctx)
-        step_status = jnp.where(tr.step_done & (tr.status == in_progress), jnp.int8(Status.OK), tr.status)
-        n_events = n_events + 1
-        # Solver outcome overrides the model's reading of the event.
-        event_happened = result == diffrax.RESULTS.event_occurred
-        reached_t1 = result == diffrax.RESULTS.successful
-        new_status = jnp.where(event_happened, step_status, jnp.where(reached_t1, jnp.int8(Status.TIMEOUT), jnp.int8(Status.SOLVER_FAILED)))
-        finite = jnp.all(jnp.isfinite(tr.y)) & jnp.isfinite(t_event)
-        new_status = jnp.where(finite, new_status, jnp.int8(Status.NONFINITE))
-        new_status = jnp.where(
-            (new_status == in_progress) & (n_events >= opts.max_events), jnp.int8(Status.TOO_MANY_EVENTS), new_status
-        )
-        keep = event_happened & finite
-        return (
-            t_event,
-            jnp.where(keep, tr.y, y_event),
-            jnp.where(keep, tr.phase, phase),
-            jnp.where(keep, tr.ctx, ctx),
-            length + jnp.where(keep, tr.shift, 0.0),
-            new_status.astype(jnp.int8),
-            n_events,
-        )
+        solved = _solve_phase(model, params, y, phase, ctx, t, opts)
+        end = end_phase(model, params, t, y, phase, ctx, solved, n_events, opts)
+        return (end.t_event, end.y_next, end.phase_next, end.ctx_next, length + end.shift, end.status, end.n_events)
 
     dtype = y0.dtype
     carry0 = (

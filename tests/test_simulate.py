@@ -200,6 +200,28 @@ def test_step_down_moves_the_ground(walk, step_fn):
     np.testing.assert_allclose(traj.y[first_next], res.y, atol=1e-9)
 
 
+def test_guard_past_at_a_phase_start_is_an_event_there(walk, step_fn):
+    """After a 0.2 m drop the compass walker lands its swing foot behind the hip,
+    so the next step starts with its mid-stance guard negative. The recorder, like
+    run_step (both through jaxwalk.step.end_phase), takes that as an event at the
+    phase's start: the walker falls there instead of running into the time limit."""
+    _, ds = walk
+    params = params_of(ds)
+    y0, phase0, ctx0 = simulate.initial_state(MODEL, params, json.loads(ds.attrs["start_section"]), 0.2)
+    traj = simulate.record_walk(MODEL, params, y0, phase0, ctx0, 2, 0.01)
+    first = step_fn(MODEL, params, y0, phase0, ctx0)
+    second = step_fn(MODEL, params, first.y, first.phase, first.ctx)
+    assert int(first.status) == Status.OK and int(second.status) == Status.FELL
+    np.testing.assert_array_equal(traj.step_status, [Status.OK, Status.FELL])
+    assert traj.status == Status.FELL and traj.steps_completed == 1
+    assert traj.step_duration[1] == float(second.time) == 0.0
+    # The failing event is recorded at the step's start, the state unchanged.
+    assert traj.sample_kind[-1] == BEFORE_EVENT and traj.step[-1] == 1
+    assert traj.sample_kind[-2] == AFTER_EVENT and traj.step[-2] == 1
+    assert traj.time[-1] == traj.time[-2] == traj.step_start_time[1]
+    np.testing.assert_array_equal(traj.y[-1], traj.y[-2])
+
+
 class PoweredCompass(CompassWalker):
     """The passive compass walker with a bookkeeping "actuator power" q_dot[2]
     (it does no work on the dynamics): its integral along a step is alpha_1(t) - alpha_1(0)."""

@@ -1,0 +1,286 @@
+"""Record a walk: the state machine of :func:`jaxwalk.step.run_step`, sampled.
+
+Recording runs run_step's loop one phase at a time in Python: a jitted solve of
+one phase (the same ``diffeqsolve`` as :func:`jaxwalk.step._solve_phase`, with
+dense output), then :func:`jaxwalk.step.end_phase`, which run_step's loop calls
+too (the event, the model's ``on_event`` and the status rules). Between events
+the state is sampled on a regular time grid (multiples of ``dt`` in the walk's
+time) from the solver's dense interpolant; at every event both the state just
+before and the state just after the reset are recorded at the event time, so
+impacts show as jumps. The state after each step's last event is run_step's
+result for that step to round-off (``tests/test_simulate.py``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+
+import numpy as np
+
+from jaxwalk.status import Status
+from jaxwalk.walker import Walker
+
+#: ``sample_kind`` codes.
+REGULAR, BEFORE_EVENT, AFTER_EVENT = 0, 1, 2
+SAMPLE_KINDS = ("regular", "before_event", "after_event")
+
+
+@dataclasses.dataclass
+class Trajectory:
+    """A recorded walk, numpy arrays. ``n`` samples, ``k`` steps attempted.
+
+    Per sample: ``time`` (n,), ``step`` (n,) index of the step the sample belongs
+    to (the state after the last step's final event has index ``steps_completed``),
+    ``phase`` (n,), ``sample_kind`` (n,) :data:`SAMPLE_KINDS`, ``event_guard`` (n,)
+    the guard that fired at an event sample (-1 elsewhere), ``y`` (n, 2 n_q),
+    ``ctx`` (n, n_ctx), ``origin`` (n, 2) the step frame's origin in the first
+    step's frame, ``contact_force`` (n, n_c) (NaN where a constraint is
+    inactive), ``energy`` (n,) in the first step's frame, ``actuator_power`` and
+    ``work`` (n,).
+
+    Per step: ``step_status``, ``step_start_time``, ``step_duration``,
+    ``step_length`` (k,), ``section_start``, ``section_end`` (k, n_v; NaN for a
+    step that failed). ``status``: ``OK`` if every step was completed, else the
+    failed step's status; ``steps_completed``.
+    """
+
+    time: np.ndarray
+    step: np.ndarray
+    phase: np.ndarray
+    sample_kind: np.ndarray
+    event_guard: np.ndarray
+    y: np.ndarray
+    ctx: np.ndarray
+    origin: np.ndarray
+    contact_force: np.ndarray
+    energy: np.ndarray
+    actuator_power: np.ndarray
+    work: np.ndarray
+    step_status: np.ndarray
+    step_start_time: np.ndarray
+    step_duration: np.ndarray
+    step_length: np.ndarray
+    section_start: np.ndarray
+    section_end: np.ndarray
+    status: int
+    steps_completed: int
+
+
+def _observe(model: Walker, params, y, phase, ctx):
+    """Contact forces (NaN where inactive), energy in the step's frame, actuator power."""
+    import jax.numpy as jnp
+
+    _, lam = model.dynamics(y, params, phase, ctx)
+    lam = jnp.where(model.constraint_mask(phase, params) > 0, lam, jnp.nan)
+    energy = model.energy(y, params, phase, ctx)
+    power_fn = getattr(model, "actuator_power", None)
+    if power_fn is None:
+        power = jnp.zeros((), y.dtype)
+    else:
+        q, qd = model.split(y)
+        power = jnp.asarray(power_fn(q, qd, params, phase, ctx), y.dtype)
+    return lam, energy, power
+
+
+@functools.lru_cache(maxsize=None)
+def _compiled(model: Walker, opts):
+    """Jitted pieces of the recorder for one model and solver settings."""
+    import diffrax
+    import jax
+    import jax.numpy as jnp
+
+    from jaxwalk.rootfind import BracketedNewton
+    from jaxwalk.step import end_phase
+
+    def advance(params, y, phase, ctx, t0, n_events):
+        # The phase solve of jaxwalk.step._solve_phase, with dense output.
+        term = diffrax.ODETerm(model.vector_field)
+
+        def smallest_guard(t, y, args, **kwargs):
+            return jnp.min(model.guard_values(t, y, *args))
+
+        event = diffrax.Event(
+            smallest_guard, root_finder=BracketedNewton(rtol=opts.event_tol, atol=opts.event_tol), direction=False
+        )
+        t1 = t0 + opts.phase_time_limit * model.time_scale(params)
+        sol = diffrax.diffeqsolve(
+            term,
+            opts.make_solver(),
+            t0=t0,
+            t1=t1,
+            dt0=None,
+            y0=y,
+            args=(params, phase, ctx),
+            event=event,
+            stepsize_controller=diffrax.PIDController(rtol=opts.rtol, atol=opts.atol),
+            max_steps=opts.max_solver_steps,
+            adjoint=diffrax.ForwardMode(),
+            throw=False,
+            saveat=diffrax.SaveAt(t1=True, dense=True),
+        )
+        solved = (sol.ts[-1], sol.ys[-1], sol.result)
+        return end_phase(model, params, t0, y, phase, ctx, solved, n_events, opts), sol.interpolation
+
+    def sample(interp, ts, params, phase, ctx):
+        ys = jax.vmap(interp.evaluate)(ts)
+        lam, energy, power = jax.vmap(lambda y: _observe(model, params, y, phase, ctx))(ys)
+        return ys, lam, energy, power
+
+    def observe(params, ys, phases, ctxs):
+        return jax.vmap(lambda y, p, c: _observe(model, params, y, p, c))(ys, phases, ctxs)
+
+    def section(params, y, ctx):
+        return model.state_to_section(y, params, ctx)
+
+    return jax.jit(advance), jax.jit(sample), jax.jit(observe), jax.jit(section)
+
+
+def _padded(n: int) -> int:
+    # Few distinct sizes, so few compilations of the sampler (each ~2 s on CPU).
+    return max(256, 1 << max(n - 1, 0).bit_length())
+
+
+def record_walk(model: Walker, params, y0, phase0, ctx0, n_steps: int, dt: float, opts=None) -> Trajectory:
+    """Walk ``n_steps`` steps from the full state ``(y0, phase0, ctx0)`` and record it.
+
+    The walk stops early at the first step that does not end with status ``OK``
+    (its samples up to the failing event are kept).
+
+    Args:
+        model: the walker; ``params`` its parameters (a dict of scalars).
+        y0, phase0, ctx0: the state at the start of the first step.
+        n_steps: steps to take.
+        dt: sampling interval (model time units); samples lie at multiples of
+            ``dt`` of the walk's time, plus two at every event.
+        opts: :class:`jaxwalk.step.SolverOptions` (default settings if ``None``).
+    """
+    import jax.numpy as jnp
+
+    from jaxwalk.step import SolverOptions
+
+    opts = opts or SolverOptions()
+    advance, sample, observe, section = _compiled(model, opts)
+    masses = np.asarray(model.masses(params))
+    weight = masses.sum() * np.asarray(model.gravity(params))  # total weight vector in the slope frame
+    has_power = getattr(model, "actuator_power", None) is not None
+
+    rows: dict[str, list] = {k: [] for k in ("time", "step", "phase", "kind", "guard", "y", "ctx", "origin", "lam", "energy", "power", "work")}
+
+    def add(time, step, phase, kind, guard, ys, ctx, origin, lam, energy, power, work):
+        n = len(ys)
+        if n == 0:  # a phase with no grid point inside (shorter than dt, or an event at its start)
+            return
+        rows["time"].append(np.asarray(time, np.float64).reshape(n))
+        rows["step"].append(np.full(n, step, np.int32))
+        rows["phase"].append(np.full(n, phase, np.int32))
+        rows["kind"].append(np.full(n, kind, np.int8))
+        rows["guard"].append(np.full(n, guard, np.int8))
+        rows["y"].append(np.asarray(ys).reshape(n, -1))
+        rows["ctx"].append(np.tile(np.asarray(ctx), (n, 1)))
+        rows["origin"].append(np.tile(origin, (n, 1)))
+        rows["lam"].append(np.asarray(lam).reshape(n, -1))
+        # Gravity potential in the first step's frame: -weight . (p + origin).
+        rows["energy"].append(np.asarray(energy).reshape(n) - weight @ origin)
+        rows["power"].append(np.asarray(power).reshape(n))
+        rows["work"].append(np.asarray(work, np.float64).reshape(n))
+
+    y = jnp.asarray(y0)
+    phase = jnp.asarray(phase0, jnp.int32)
+    ctx = jnp.asarray(ctx0)
+    origin = np.zeros(2)
+    work = 0.0
+    t_walk = 0.0  # time at the start of the current step
+    # (A batch of two, the shape every event uses: one compilation.)
+    lam, energy, power = observe(params, jnp.stack([y, y]), jnp.stack([phase, phase]), jnp.stack([ctx, ctx]))
+    add(0.0, 0, int(phase), REGULAR, -1, y[None], ctx, origin, lam[:1], energy[:1], power[:1], work)
+
+    step_status, step_start, step_duration, step_length, sec_start, sec_end = [], [], [], [], [], []
+    status = int(Status.OK)
+    for k in range(n_steps):
+        sec_start.append(np.asarray(section(params, y, ctx)))
+        step_start.append(t_walk)
+        t_local, n_events, length = 0.0, 0, 0.0
+        step_code = int(Status.IN_PROGRESS)
+        while step_code == int(Status.IN_PROGRESS):
+            out, interp = advance(params, y, phase, ctx, jnp.asarray(t_local), jnp.asarray(n_events, jnp.int32))
+            n_events += 1
+            t_event = float(out.t_event)
+            # Regular samples strictly inside the phase, on the walk's grid k dt.
+            a, b = t_walk + t_local, t_walk + t_event
+            ks = np.arange(math.floor(a / dt), math.ceil(b / dt) + 1)
+            grid = ks * dt
+            grid = grid[(grid > a) & (grid < b)]
+            local = grid - t_walk
+            nodes = np.concatenate([[t_local], local, [t_event]])
+            ts = nodes if not has_power else np.concatenate([nodes, 0.5 * (nodes[:-1] + nodes[1:])])
+            pad = np.full(_padded(len(ts)), t_event)
+            pad[: len(ts)] = ts
+            ys, lam, energy, power = sample(interp, jnp.asarray(pad), params, phase, ctx)
+            power = np.asarray(power)
+            if has_power:
+                m = len(nodes)
+                p_nodes, p_mid = power[:m], power[m : 2 * m - 1]
+                pieces = np.diff(nodes) / 6.0 * (p_nodes[:-1] + 4.0 * p_mid + p_nodes[1:])
+                work_nodes = work + np.concatenate([[0.0], np.cumsum(pieces)])
+            else:
+                work_nodes = np.full(len(nodes), work)
+            inner = slice(1, len(nodes) - 1)
+            ph = int(phase)
+            add(grid, k, ph, REGULAR, -1, ys[inner], ctx, origin, lam[inner], energy[inner], power[inner], work_nodes[inner])
+            work = float(work_nodes[-1])
+
+            # The event: the state before it, and after it if the walk goes on.
+            step_code = int(out.status)
+            guard = int(out.guard) if bool(out.event_happened) else -1
+            both_y = jnp.stack([out.y_event, out.y_next])
+            lam2, energy2, power2 = observe(
+                params, both_y, jnp.stack([phase, out.phase_next]), jnp.stack([ctx, out.ctx_next])
+            )
+            add(b, k, ph, BEFORE_EVENT, guard, both_y[:1], ctx, origin, lam2[:1], energy2[:1], power2[:1], work)
+            length += float(out.shift)
+            goes_on = step_code in (int(Status.IN_PROGRESS), int(Status.OK))
+            if goes_on:
+                next_step = k + 1 if bool(out.step_done) else k
+                if bool(out.step_done):
+                    # Same hip, new frame: the frame moved by the hip's change of coordinates.
+                    origin = origin + np.asarray(out.y_event[:2] - out.y_next[:2])
+                add(b, next_step, int(out.phase_next), AFTER_EVENT, guard, both_y[1:], out.ctx_next, origin,
+                    lam2[1:], energy2[1:], power2[1:], work)
+            y, phase, ctx = out.y_next, out.phase_next, out.ctx_next
+            t_local = t_event
+        step_status.append(step_code)
+        step_duration.append(t_local)
+        step_length.append(length)
+        t_walk += t_local
+        if step_code == int(Status.OK):
+            sec_end.append(np.asarray(section(params, y, ctx)))
+        else:
+            sec_end.append(np.full(len(model.section_names), np.nan))
+            status = step_code
+            break
+
+    cat = {k: np.concatenate(v) for k, v in rows.items()}
+    return Trajectory(
+        time=cat["time"],
+        step=cat["step"],
+        phase=cat["phase"],
+        sample_kind=cat["kind"],
+        event_guard=cat["guard"],
+        y=cat["y"],
+        ctx=cat["ctx"],
+        origin=cat["origin"],
+        contact_force=cat["lam"],
+        energy=cat["energy"],
+        actuator_power=cat["power"],
+        work=cat["work"],
+        step_status=np.asarray(step_status, np.int8),
+        step_start_time=np.asarray(step_start),
+        step_duration=np.asarray(step_duration),
+        step_length=np.asarray(step_length),
+        section_start=np.asarray(sec_start).reshape(-1, len(model.section_names)),
+        section_end=np.asarray(sec_end).reshape(-1, len(model.section_names)),
+        status=status,
+        steps_completed=int(sum(1 for s in step_status if s == int(Status.OK))),
+    )

@@ -1,0 +1,65 @@
+"""Where a walk starts: the periodic gait's fixed point or given section coordinates.
+
+The gait is found with :func:`jaxwalk.gait.find_gait` from the model's initial
+guess. Optionally the ground at the first touchdown lies lower by ``drop`` (a
+vertical step-down, as in :mod:`jaxwalk.stepdown`: the context entry
+``ground_next`` is ``-drop cos(gamma)``; afterwards the walker stays on the
+new level).
+"""
+
+from __future__ import annotations
+
+import functools
+from typing import Mapping
+
+import numpy as np
+
+from jaxwalk.sweep.config import ConfigError
+from jaxwalk.walker import Walker
+
+
+class GaitNotFound(ConfigError):
+    """No periodic gait to start from (a one-line message naming the status)."""
+
+
+
+def as_params(fixed: Mapping[str, float]) -> dict:
+    """Parameters as a pytree of float64 scalars."""
+    import jax.numpy as jnp
+
+    return {k: jnp.asarray(v, jnp.float64) for k, v in fixed.items()}
+
+
+@functools.lru_cache(maxsize=None)
+def _gait_search(model: Walker, solver, newton):
+    import jax
+
+    from jaxwalk.gait import find_gait
+
+    return jax.jit(lambda params, v0: find_gait(model, params, v0, solver, newton))
+
+
+def find_start_gait(model: Walker, params, solver=None, newton=None):
+    """The periodic gait from the model's initial guess (:class:`jaxwalk.gait.Gait`, numpy leaves)."""
+    import jax
+
+    from jaxwalk.gait import NewtonOptions
+    from jaxwalk.step import SolverOptions
+
+    solver = solver or SolverOptions()
+    newton = newton or NewtonOptions()
+    gait = _gait_search(model, solver, newton)(params, model.initial_guess(params))
+    return jax.tree_util.tree_map(np.asarray, gait)
+
+
+def initial_state(model: Walker, params, v, drop: float = 0.0):
+    """``(y, phase, ctx)`` at the start of a step from section coordinates ``v``,
+    with the ground at the first touchdown lower by ``drop`` (vertical)."""
+    import jax.numpy as jnp
+
+    y, phase, ctx = model.section_to_state(jnp.asarray(v, jnp.float64), params)
+    if "ground_next" in model.context:
+        ctx = ctx.at[model.ctx_index("ground_next")].set(-drop * jnp.cos(params["gamma"]))
+    elif drop:
+        raise ValueError(f"model '{model.name}' has no step-down (no 'ground_next' in its context)")
+    return y, phase, ctx
