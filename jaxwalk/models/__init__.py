@@ -8,28 +8,24 @@ from here rather than constructing a new one.
 from __future__ import annotations
 
 from jaxwalk.models.compass import CompassWalker
+from jaxwalk.models.flatfoot import FlatFootWalker
 from jaxwalk.models.kneed import KneedStopWalker, KneedWalker
 from jaxwalk.models.simplest import SimplestWalker
 from jaxwalk.walker import Walker
 
-MODELS: dict[str, Walker] = {m.name: m for m in (SimplestWalker(), CompassWalker())}
-
-try:
-    from jaxwalk.models.kneed import KneedWalker
-except ModuleNotFoundError as err:  # not written yet; any other import error is a bug and surfaces
-    if err.name != "jaxwalk.models.kneed":
-        raise
-else:
-    MODELS[KneedWalker.name] = KneedWalker()
+MODELS: dict[str, Walker] = {
+    m.name: m
+    for m in (SimplestWalker(), CompassWalker(), KneedWalker(), KneedStopWalker(), FlatFootWalker())
+}
 
 
 def get_model(name: str) -> Walker:
     """The registered model called ``name``.
 
     Raises:
-        KeyError: no such model; the one-line message (``err.args[0]``) lists the known ones.
+        KeyError: with a one-line message listing the known models.
     """
     try:
         return MODELS[name]
-    except (KeyError, TypeError):
-        raise KeyError(f"unknown model {name!r} (known: {', '.join(MODELS)})") from None
+    except KeyError:
+        raise KeyError(f"unknown model '{name}' (known: {', '.join(MODELS)})") from None

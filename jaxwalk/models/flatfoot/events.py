@@ -1,0 +1,290 @@
+"""Guards and resets of the flat-foot walker.
+
+Guards are positive while a phase goes on (the engine's convention); a guard that
+does not apply in a phase returns 1.0, and every gate opens only where the gated
+value is already positive, so that opening a gate is never itself a crossing.
+
+The swing knee has an extension stop at flexion ``knee_lock`` and a latch
+(``ctx["knee_2"]``: latched, released, relatched). Transitions:
+
+* ``unlock`` (``delay - t``; the step starts at ``t = 0`` just after toe-strike):
+  the latch releases. The knee stays on its stop while the stop pushes.
+* ``knee_flex`` (the stop's torque falls to zero): the knee starts to flex;
+  push_off -> shank_release, locked_swing -> swing.
+* ``toe_off`` (leg 2's toe normal force falls to zero): push_off -> locked_swing,
+  shank_release -> swing. The massless foot snaps to its relaxed angle and the
+  spring's stored energy is lost.
+* ``knee_strike`` (leg 2's flexion falls to ``knee_lock`` while extending):
+  inelastic impact onto the knee lock, the latch closes; swing -> locked_swing,
+  shank_release -> push_off.
+* ``heel_strike`` (leg 2's heel reaches the ground ahead of foot 1): inelastic
+  impact onto the heel circle; locked_swing -> heel_pivot. Unless the latch has
+  closed again: ``SHANK_RELEASING``.
+* ``toe_strike`` (leg 2's ankle reaches the ground: the foot is flat): inelastic
+  impact onto ankle 2 pinned with leg 1 on its toe; legs swap, the frame moves
+  to the new stance ankle, and the step ends.
+
+After every transition the new phase is checked on entry: a toe that would pull
+on the ground leaves at once, a released knee whose stop would pull flexes at
+once (both logged as events), and a failure guard already non-positive sets its
+status. (The engine also treats a guard that is negative when a phase starts as
+an event at the start, but only after integrating the phase in vain; resolving
+these here saves that integration and keeps the event log complete.)
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+
+from jaxwalk.models.flatfoot import forces
+from jaxwalk.models.flatfoot import geometry as geo
+from jaxwalk.models.flatfoot import phases as ph
+from jaxwalk.status import Status
+from jaxwalk.walker import Transition
+
+(UNLOCK, KNEE_FLEX, TOE_OFF, KNEE_STRIKE, HEEL_STRIKE, TOE_STRIKE,
+ FALL, LEG_RANGE, STALL, RUNNING, SCUFF) = range(11)  # fmt: skip
+GUARD_NAMES = (
+    "unlock",
+    "knee_flex",
+    "toe_off",
+    "knee_strike",
+    "heel_strike",
+    "toe_strike",
+    "fall",
+    "leg_range",
+    "stall",
+    "running",
+    "scuff",
+)
+#: Status of each failure guard, in order of precedence.
+FAILURES = {FALL: Status.FELL, LEG_RANGE: Status.FELL, STALL: Status.STALLED, RUNNING: Status.RUNNING, SCUFF: Status.SCUFFING}
+
+#: Hip height (normal to the slope, leg lengths) below which the walker has fallen.
+FALL_HEIGHT = 0.5
+#: Largest |segment angle| (rad) from the slope normal before we call it a fall.
+SEGMENT_LIMIT = 1.5
+#: Largest swing-knee flexion (rad).
+FLEXION_LIMIT = 2.5
+#: A contact impulse more tensile than this (units M sqrt(g L)) pulls the foot off
+#: the ground. Smaller ones are absorbed by the static load the foot carries
+#: during a real collision: about body weight times 3 ms (0.01 sqrt(L/g) for a
+#: 0.9 m leg); without a margin a gait whose heel lands at zero speed sits on a
+#: knife edge. (The paper does not constrain the stance foot in its impacts at all.)
+IMPULSE_TOL = 1e-2
+
+_CHECKED_IMPULSES = jnp.array([0, 1, 3])
+_STOP_PHASES = jnp.array([True, False, False, True, False])  # knee 2 locked, may release
+
+
+def _ground_under(x, ctx, params):
+    """Ground height below ``x``: the previous level behind foot 1, 0 under it, the next level ahead."""
+    a_h, a_t = geo.foot_arms(params)
+    x_a1 = ctx[ph.C["x_ankle_1"]]
+    return jnp.where(
+        x > x_a1 + a_t,
+        ctx[ph.C["ground_next"]],
+        jnp.where(x < x_a1 - a_h, ctx[ph.C["y_toe_2"]], 0.0),
+    )
+
+
+def guard_values(model, t, y, params, phase, ctx):
+    """``(11,)`` guard values in the order of :data:`GUARD_NAMES`."""
+    q, qd = model.split(y)
+    _, lam = model.dynamics(y, params, phase, ctx)
+    stance, _, toe, _ = forces.contact_reactions(q, lam, params, phase, ctx)
+    gn, knee_state = ctx[ph.C["ground_next"]], ctx[ph.C["knee_2"]]
+    _, a_t = geo.foot_arms(params)
+    one = jnp.ones_like(t)
+
+    on_stop = _STOP_PHASES[phase]
+    unlock = jnp.where(on_stop & (knee_state == ph.LATCHED), params["delay"] - t, one)
+    # The knee row's multiplier is a torque opening the knee: positive while the stop pushes.
+    knee_flex = jnp.where(on_stop & (knee_state == ph.RELEASED), lam[ph.KNEE_2], one)
+    toe_off = jnp.where(ph.ON_TOE[phase], toe[1], one)
+    flex, flex_rate = geo.flexion(q, 2), geo.flexion(qd, 2)
+    knee = jnp.where(ph.KNEE_2_FREE[phase] & (flex_rate < 0.0), flex - params["knee_lock"], one)
+
+    in_air = (phase == ph.SWING) | (phase == ph.LOCKED_SWING)
+    heel_pt, toe_pt = geo.free_foot(q, params, 2)
+    # Open once the heel is past foot 1's toe, where a heel in the air is above ground.
+    past = heel_pt[0] > ctx[ph.C["x_ankle_1"]] + a_t
+    heel_strike = jnp.where(in_air & past, heel_pt[1] - gn, one)
+    toe_strike = jnp.where(phase == ph.HEEL_PIVOT, geo.ankle(q, params, 2)[1] - gn, one)
+
+    fall = q[geo.Y_H] - FALL_HEIGHT
+    leg_range = jnp.minimum(SEGMENT_LIMIT - jnp.max(jnp.abs(q[2:])), FLEXION_LIMIT - flex)
+    stall = qd[geo.X_H]
+    # The stance foot must push. The heel of foot 2 may pull in heel pivot: the
+    # paper's impacts are "fully inelastic, no slip and no bounce" (assumption 4).
+    running = stance[1]
+    clearance = jnp.minimum(
+        heel_pt[1] - _ground_under(heel_pt[0], ctx, params), toe_pt[1] - _ground_under(toe_pt[0], ctx, params)
+    )
+    scuff = jnp.where(in_air, clearance + params["scuff_tol"], one)
+    return jnp.stack([unlock, knee_flex, toe_off, knee, heel_strike, toe_strike, fall, leg_range, stall, running, scuff])
+
+
+def _log(ctx, guard, t, time_entry=None):
+    ctx = ph.log_event(ctx, guard)
+    return ctx if time_entry is None else ctx.at[ph.C[time_entry]].set(t)
+
+
+def settle(model, t, y, params, phase, ctx):
+    """Resolve contacts and the knee stop on entering ``phase``: ``(phase, ctx, guards)``.
+
+    A toe that would pull on the ground leaves it (``toe_off``); a released knee
+    whose stop would pull starts to flex (``knee_flex``). ``guards`` are the guard
+    values in the phase finally chosen. At most two changes can happen, so three
+    passes of one loop body (compiled once) reach the final phase and its guards.
+    """
+
+    def one_pass(_, carry):
+        phase, ctx, _ = carry
+        g = guard_values(model, t, y, params, phase, ctx)
+        lifts = ph.ON_TOE[phase] & (g[TOE_OFF] < 0.0)
+        flexes = ~lifts & (g[KNEE_FLEX] < 0.0)
+        from_push_off = phase == ph.PUSH_OFF
+        new_phase = jnp.select(
+            [lifts, flexes],
+            [jnp.where(from_push_off, ph.LOCKED_SWING, ph.SWING), jnp.where(from_push_off, ph.SHANK_RELEASE, ph.SWING)],
+            phase,
+        ).astype(jnp.int32)
+        new_ctx = jnp.select(
+            [lifts, flexes], [_log(ctx, TOE_OFF, t, "t_toe_off"), _log(ctx, KNEE_FLEX, t, "t_knee_flex")], ctx
+        )
+        return new_phase, new_ctx, g
+
+    g0 = jnp.ones(len(GUARD_NAMES), y.dtype)
+    return jax.lax.fori_loop(0, 3, one_pass, (jnp.asarray(phase, jnp.int32), ctx, g0))
+
+
+def entry_failure(guards, phase):
+    """Status of the first failure guard that is already non-positive on entering ``phase``."""
+    status = jnp.int8(Status.IN_PROGRESS)
+    for guard, code in reversed(list(FAILURES.items())):  # the first listed wins
+        status = jnp.where(guards[guard] <= 0.0, jnp.int8(code), status)
+    # A heel pivot that starts with the ankle on or below the ground: the foot landed flat or toe first.
+    bad_landing = (phase == ph.HEEL_PIVOT) & (guards[TOE_STRIKE] <= 0.0)
+    return jnp.where(bad_landing, jnp.int8(Status.SCUFFING), status)
+
+
+def normal_impulses(q, impulses, params, ctx):
+    """Normal components of the contact impulses ``(5,)``: foot 1, toe 2, heel 2, ankle 2, toe 1."""
+    toe_1, toe_2, heel_2, _ = ph.anchors(params, ctx)
+    ankle_1, ankle_2 = geo.ankle(q, params, 1), geo.ankle(q, params, 2)
+    radial_y = lambda a, c: (a - c)[1] / jnp.linalg.norm(a - c)
+    return jnp.stack(
+        [
+            impulses[ph.ANKLE_1_Y],
+            impulses[ph.TOE_2] * radial_y(ankle_2, toe_2),
+            impulses[ph.HEEL_2] * radial_y(ankle_2, heel_2),
+            impulses[ph.ANKLE_2_Y],
+            impulses[ph.TOE_1] * radial_y(ankle_1, toe_1),
+        ]
+    )
+
+
+def trailing_heel_sinks(y, params, ctx):
+    """True if the trailing foot, flat on its toe circle, would turn heel-down (into the ground)."""
+    q, qd = y[:6], y[6:]
+    _, toe_2, _, _ = ph.anchors(params, ctx)
+    angle = lambda q_: geo.toe_pivot_angle(geo.ankle(q_, params, 2), toe_2)
+    return jax.jvp(angle, (q,), (qd,))[1] > 0.0
+
+
+def swap_legs(y, params, ctx):
+    """After toe-strike: leg 2 becomes stance, origin at its ankle. ``(y, ctx, shift)``."""
+    q, qd = y[:6], y[6:]
+    _, a_t = geo.foot_arms(params)
+    landing = geo.ankle(q, params, 2)
+    shift, drop = landing[0], landing[1]
+    perm = jnp.array([0, 1, 4, 5, 2, 3])
+    q_new = q[perm].at[0].add(-shift).at[1].add(-drop)
+    ctx_new = (
+        ctx.at[ph.C["x_ankle_1"]].set(0.0)
+        .at[ph.C["x_toe_2"]].set(ctx[ph.C["x_ankle_1"]] + a_t - shift)
+        .at[ph.C["y_toe_2"]].set(-drop)
+        .at[ph.C["x_heel_2"]].set(0.0)
+        .at[ph.C["ground_next"]].set(0.0)
+        .at[ph.C["knee_2"]].set(ph.LATCHED)
+    )  # fmt: skip
+    return jnp.concatenate([q_new, qd[perm]]), ctx_new, shift
+
+
+def on_event(model, guard, t, y, params, phase, ctx):
+    """The reset after ``guard`` crossed zero in ``phase`` (see the module docstring)."""
+    q, qd = model.split(y)
+    is_ = lambda g: guard == g
+    from_push_off = phase == ph.PUSH_OFF
+    heel_pt, _ = geo.free_foot(q, params, 2)
+    knee = ph.C["knee_2"]
+    ctx_new = jnp.select(
+        [is_(UNLOCK), is_(KNEE_FLEX), is_(TOE_OFF), is_(KNEE_STRIKE), is_(HEEL_STRIKE)],
+        [
+            _log(ctx, UNLOCK, t, "t_unlock").at[knee].set(ph.RELEASED),
+            _log(ctx, KNEE_FLEX, t, "t_knee_flex"),
+            _log(ctx, TOE_OFF, t, "t_toe_off"),
+            _log(ctx, KNEE_STRIKE, t, "t_knee_strike").at[knee].set(ph.RELATCHED),
+            _log(ctx, HEEL_STRIKE, t, "t_heel_strike").at[ph.C["x_heel_2"]].set(heel_pt[0]),
+        ],
+        _log(ctx, guard, t),
+    )
+    next_phase = jnp.select(
+        [is_(UNLOCK), is_(KNEE_FLEX), is_(TOE_OFF), is_(KNEE_STRIKE), is_(HEEL_STRIKE)],
+        [
+            phase,
+            jnp.where(from_push_off, ph.SHANK_RELEASE, ph.SWING),
+            jnp.where(from_push_off, ph.LOCKED_SWING, ph.SWING),
+            jnp.where(phase == ph.SWING, ph.LOCKED_SWING, ph.PUSH_OFF),
+            ph.HEEL_PIVOT,
+        ],
+        ph.PUSH_OFF,
+    ).astype(jnp.int32)
+
+    # One impact, onto the constraints that hold after the event (none for the others).
+    mask = jnp.select(
+        [is_(KNEE_STRIKE) | is_(HEEL_STRIKE), is_(TOE_STRIKE)],
+        [ph.PHASE_MASKS[next_phase], ph.TOE_STRIKE_MASK],
+        jnp.zeros(ph.N_CONSTRAINTS),
+    )
+    y_imp, impulses = model.apply_impact(y, params, ctx_new, mask)
+    # Foot 1 flat, toe 2 and the landing ankle 2 must push. The heel of foot 2 is
+    # held without bounce (the paper's assumption 4), and toe 1 starts flat, so
+    # its impulse lies along the ground.
+    pulls = jnp.min(normal_impulses(q, impulses, params, ctx_new)[_CHECKED_IMPULSES]) < -IMPULSE_TOL
+
+    heel_velocity = jax.jvp(lambda q_: geo.free_foot(q_, params, 2)[0], (q,), (qd,))[1]
+    status = jnp.select(
+        [is_(FALL) | is_(LEG_RANGE), is_(STALL), is_(RUNNING), is_(SCUFF)],
+        [jnp.int8(Status.FELL), jnp.int8(Status.STALLED), jnp.int8(Status.RUNNING), jnp.int8(Status.SCUFFING)],
+        jnp.int8(Status.IN_PROGRESS),
+    )
+    released = is_(HEEL_STRIKE) & (ctx[knee] == ph.RELEASED)
+    status = jnp.where(released, jnp.int8(Status.SHANK_RELEASING), status)
+    # The heel gate opened on a heel already below ground and rising: a scuff, not a strike.
+    status = jnp.where(is_(HEEL_STRIKE) & (heel_velocity[1] >= 0.0), jnp.int8(Status.SCUFFING), status)
+    status = jnp.where((status == Status.IN_PROGRESS) & pulls, jnp.int8(Status.RUNNING), status)
+
+    # Toe-strike ends the step: swap the legs and move the frame.
+    done = is_(TOE_STRIKE)
+    y_swap, ctx_swap, shift = swap_legs(y_imp, params, ctx_new)
+    y_next = jnp.where(done, y_swap, y_imp)
+    ctx_next = jnp.where(done, ctx_swap, ctx_new)
+
+    next_phase, ctx_next, guards = settle(model, t, y_next, params, next_phase, ctx_next)
+    status = jnp.where(status == Status.IN_PROGRESS, entry_failure(guards, next_phase), status)
+    # The new trailing foot leaves flat: its heel must rise, not sink (a double flat stance is not modelled).
+    sinks = done & (next_phase == ph.PUSH_OFF) & trailing_heel_sinks(y_next, params, ctx_next)
+    status = jnp.where((status == Status.IN_PROGRESS) & sinks, jnp.int8(Status.SCUFFING), status)
+
+    ok = status == Status.IN_PROGRESS
+    return Transition(
+        phase=jnp.where(ok, next_phase, phase).astype(jnp.int32),
+        y=jnp.where(ok, y_next, y),
+        ctx=jnp.where(ok, ctx_next, _log(ctx, guard, t)),
+        status=status,
+        step_done=done & ok,
+        shift=jnp.where(done & ok, shift, 0.0),
+    )

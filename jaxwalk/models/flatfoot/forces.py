@@ -1,0 +1,108 @@
+"""Forces of the flat-foot walker: ankle springs, hip torque, ground reactions.
+
+Ankle springs are written as a potential of ``q``: a foot touching the ground has
+its angle ``phi(q)`` fixed by contact (0 when flat, by the ankle's position when it
+pivots on its heel or toe), so ``V = k/2 (shank - phi(q))^2`` and the generalized
+spring force ``-dV/dq`` carries both the torque on the shank and the force the
+massless foot passes to the ankle. A foot in the air sits at its relaxed angle
+(``phi = shank``) and stores nothing.
+
+The hip torque is a constant ``P`` between the thighs, ``+P`` on the swing thigh and
+``-P`` on the stance thigh: the generalized force of the potential
+``-P (thigh_2 - thigh_1)``, so within a step energy minus actuator work is conserved.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+
+from jaxwalk.models.flatfoot import geometry as geo
+from jaxwalk.models.flatfoot import phases as ph
+
+
+def _toe_spring(ankle_2, shank_2, params, ctx):
+    _, toe_2, _, _ = ph.anchors(params, ctx)
+    return 0.5 * params["k"] * (shank_2 - geo.toe_pivot_angle(ankle_2, toe_2)) ** 2
+
+
+def _heel_spring(ankle_2, shank_2, params, ctx):
+    _, _, heel_2, _ = ph.anchors(params, ctx)
+    return 0.5 * params["k"] * (shank_2 - geo.heel_pivot_angle(ankle_2, heel_2)) ** 2
+
+
+def spring_energy(q, params, phase, ctx):
+    """Elastic energy of both ankle springs in ``phase`` (scalar).
+
+    Leg 1 stands flat all step (``phi = 0``); leg 2 pivots on its toe in push-off
+    and shank release, on its heel in heel pivot, and is relaxed in swing.
+    """
+    stance = 0.5 * params["k"] * q[geo.SHANK_1] ** 2
+    ankle_2, shank_2 = geo.ankle(q, params, 2), q[geo.SHANK_2]
+    trailing = jnp.where(
+        ph.ON_TOE[phase],
+        _toe_spring(ankle_2, shank_2, params, ctx),
+        jnp.where(ph.ON_HEEL[phase], _heel_spring(ankle_2, shank_2, params, ctx), 0.0),
+    )
+    return stance + trailing
+
+
+def hip_torque(q, params):
+    """Generalized force of the hip actuator, ``(n_q,)``."""
+    P = params["P"]
+    return jnp.zeros_like(q).at[geo.THIGH_2].set(P).at[geo.THIGH_1].set(-P)
+
+
+def joint_forces(q, params, phase, ctx):
+    """Springs (``-dV/dq``) plus hip torque, ``(n_q,)``."""
+    spring = -jax.grad(spring_energy)(q, params, phase, ctx)
+    return spring + hip_torque(q, params)
+
+
+def actuator_power(qd, params):
+    """Power of the hip actuator, ``P (thigh_2_dot - thigh_1_dot)``."""
+    return params["P"] * (qd[geo.THIGH_2] - qd[geo.THIGH_1])
+
+
+def actuator_work(q_start, q_end, params):
+    """Work of the hip actuator between two configurations of one step."""
+    spread = lambda q: q[geo.THIGH_2] - q[geo.THIGH_1]
+    return params["P"] * (spread(q_end) - spread(q_start))
+
+
+def _pivot_reaction(multiplier, ankle_2, shank_2, params, ctx, anchor, spring):
+    """Ground force on a foot pivoting about ``anchor``: the force its ankle feels.
+
+    The massless foot passes to the ankle the constraint force (``multiplier``
+    along the foot) plus the spring's reaction (``-dV/d ankle``, across the foot),
+    and the ground must supply the same force at the contact point.
+    """
+    radial = jax.grad(lambda a: jnp.linalg.norm(a - anchor))(ankle_2)
+    across = -jax.grad(spring)(ankle_2, shank_2, params, ctx)
+    return multiplier * radial + across
+
+
+def contact_reactions(q, lam, params, phase, ctx):
+    """Ground reactions (slope frame; y is the normal force, positive pushing up).
+
+    Args:
+        q: ``(n_q,)`` configuration; ``lam``: ``(n_c,)`` multipliers from
+            ``Walker.dynamics`` in ``phase``.
+
+    Returns:
+        ``(stance, cop, toe_2, heel_2)``: the force on foot 1 ``(2,)``, its centre
+        of pressure measured forward from the ankle (scalar; must lie in
+        ``[-a_h, a_t]`` for the foot to stay flat), and the forces on the toe and
+        heel of foot 2 ``(2,)`` each, zero when not in contact.
+    """
+    stance = jnp.stack([lam[ph.ANKLE_1_X], lam[ph.ANKLE_1_Y]])
+    # Moment balance of the flat massless foot about its ankle: the spring's
+    # torque on the foot, k (shank_1 - 0), is held by the normal force at the CoP.
+    cop = -params["k"] * q[geo.SHANK_1] / stance[1]
+    ankle_2, shank_2 = geo.ankle(q, params, 2), q[geo.SHANK_2]
+    _, toe_2, heel_2, _ = ph.anchors(params, ctx)
+    toe = _pivot_reaction(lam[ph.TOE_2], ankle_2, shank_2, params, ctx, toe_2, _toe_spring)
+    heel = _pivot_reaction(lam[ph.HEEL_2], ankle_2, shank_2, params, ctx, heel_2, _heel_spring)
+    toe = jnp.where(ph.ON_TOE[phase], toe, 0.0)
+    heel = jnp.where(ph.ON_HEEL[phase], heel, 0.0)
+    return stance, cop, toe, heel

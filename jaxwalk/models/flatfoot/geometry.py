@@ -1,0 +1,119 @@
+"""Geometry of the flat-foot walker: segments, point masses and feet.
+
+Generalized coordinates ``q = (x_h, y_h, thigh_1, shank_1, thigh_2, shank_2)``:
+the hip in the slope frame, then absolute segment angles from the slope normal,
+positive when the segment's distal end lies ahead of its proximal end (the
+engine's convention). A segment of length ``l`` at angle ``a`` runs from its top
+``p`` to ``p + l (sin a, -cos a)``.
+
+Knee flexion is ``thigh - shank`` (positive when the shank folds back). A locked
+knee holds the flexion at ``knee_lock`` (the flexion at which it locked).
+
+Feet are massless rigid bars through the ankle (zero ankle height). The foot
+angle ``phi`` is measured from the slope surface, positive toe-up; the foot's
+heel-to-toe direction is ``(cos phi, sin phi)``. The heel lies
+``a_h = l_f r / (1 + r)`` behind the ankle and the toe ``a_t = l_f / (1 + r)``
+ahead of it. ``phi`` is not a coordinate: it is 0 for a flat foot, fixed by the
+ankle's position for a foot pivoting on its heel or toe, and equal to the
+shank angle (foot perpendicular to the shank, spring relaxed) in swing.
+
+All lengths in units of the leg length L, masses in units of the total mass M.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+
+Array = jax.Array
+
+# Indices into q.
+X_H, Y_H, THIGH_1, SHANK_1, THIGH_2, SHANK_2 = range(6)
+THIGH = {1: THIGH_1, 2: THIGH_2}
+SHANK = {1: SHANK_1, 2: SHANK_2}
+
+#: Names of the point masses, in the order of :func:`points`.
+POINT_NAMES = ("hip", "thigh_1", "shank_1", "foot_1", "thigh_2", "shank_2", "foot_2")
+
+
+def distal(angle: Array) -> Array:
+    """Unit vector from a segment's top to its bottom, ``(sin a, -cos a)``."""
+    return jnp.stack([jnp.sin(angle), -jnp.cos(angle)])
+
+
+def foot_direction(phi: Array) -> Array:
+    """Unit vector from heel to toe of a foot at angle ``phi``."""
+    return jnp.stack([jnp.cos(phi), jnp.sin(phi)])
+
+
+def foot_arms(params) -> tuple[Array, Array]:
+    """``(a_h, a_t)``: ankle-to-heel and ankle-to-toe distances from ``l_f`` and ``r``."""
+    l_f, r = params["l_f"], params["r"]
+    return l_f * r / (1.0 + r), l_f / (1.0 + r)
+
+
+def knee(q: Array, params, leg: int) -> Array:
+    return q[:2] + params["l_t"] * distal(q[THIGH[leg]])
+
+
+def ankle(q: Array, params, leg: int) -> Array:
+    return knee(q, params, leg) + params["l_s"] * distal(q[SHANK[leg]])
+
+
+def flexion(q: Array, leg: int) -> Array:
+    """Knee flexion ``thigh - shank`` (rad)."""
+    return q[THIGH[leg]] - q[SHANK[leg]]
+
+
+def points(q: Array, params) -> Array:
+    """``(7, 2)`` positions of the point masses, in the order of :data:`POINT_NAMES`."""
+    hip = q[:2]
+    out = [hip]
+    for leg in (1, 2):
+        thigh_dir, shank_dir = distal(q[THIGH[leg]]), distal(q[SHANK[leg]])
+        knee_ = hip + params["l_t"] * thigh_dir
+        out += [
+            hip + params["c_t"] * params["l_t"] * thigh_dir,
+            knee_ + params["c_s"] * params["l_s"] * shank_dir,
+            knee_ + params["l_s"] * shank_dir,
+        ]
+    return jnp.stack(out)
+
+
+def masses(params) -> Array:
+    """``(7,)`` point masses: hip, then thigh, shank, foot of leg 1 and of leg 2."""
+    leg = [params["m_t"], params["m_s"], params["m_f"]]
+    return jnp.stack([params["m_h"], *leg, *leg])
+
+
+def chord(params) -> tuple[Array, Array]:
+    """Hip-to-ankle distance ``A`` and offset ``delta`` of a leg with its knee locked.
+
+    With flexion ``kappa = knee_lock`` the hip-to-ankle vector is
+    ``A (sin psi, -cos psi)`` with ``psi = thigh - delta`` (the leg's *chord angle*).
+    """
+    l_t, l_s, kappa = params["l_t"], params["l_s"], params["knee_lock"]
+    length = jnp.sqrt(l_t**2 + l_s**2 + 2.0 * l_t * l_s * jnp.cos(kappa))
+    delta = jnp.arctan2(l_s * jnp.sin(kappa), l_t + l_s * jnp.cos(kappa))
+    return length, delta
+
+
+# ----------------------------------------------------------------- foot angles
+def toe_pivot_angle(ankle_: Array, toe: Array) -> Array:
+    """Foot angle of a foot whose toe rests at ``toe`` (negative: toe down)."""
+    w = toe - ankle_
+    return jnp.arctan2(w[1], w[0])
+
+
+def heel_pivot_angle(ankle_: Array, heel: Array) -> Array:
+    """Foot angle of a foot whose heel rests at ``heel`` (positive: toe up)."""
+    w = ankle_ - heel
+    return jnp.arctan2(w[1], w[0])
+
+
+def free_foot(q: Array, params, leg: int) -> tuple[Array, Array]:
+    """Heel and toe of a foot in the air, held perpendicular to its shank."""
+    a_h, a_t = foot_arms(params)
+    a = ankle(q, params, leg)
+    e = foot_direction(q[SHANK[leg]])
+    return a - a_h * e, a + a_t * e

@@ -1,0 +1,130 @@
+"""The flat-foot walker (Wang, Wei, Wang & Lv): knees, flat feet on ankle springs, hip torque.
+
+A point mass at the hip (upper body), a point mass on each thigh and shank,
+the foot's mass at the ankle, rigid massless flat feet on linear torsional ankle
+springs, knees that lock and unlock, and a constant hip torque ``P``. Units:
+total mass M = leg length L = g = 1 (time in ``sqrt(L/g)``). See
+``docs/model.md`` for every modelling decision and its source.
+
+Section: just after toe-strike (legs swapped), stance ankle at the origin, both
+feet flat, both knees locked. That state has one configuration and one velocity
+degree of freedom; ``v = (psi, psi_dot)``, the stance leg's chord angle (hip to
+ankle, from the slope normal, positive with the ankle ahead of the hip) and its
+rate. The trailing leg's chord angle is ``-psi`` (both ankles on the ground).
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+
+from jaxwalk.models.flatfoot import events, forces
+from jaxwalk.models.flatfoot import geometry as geo
+from jaxwalk.models.flatfoot import phases as ph
+from jaxwalk.parameters import ParamSpec, nonnegative, positive
+from jaxwalk.walker import Walker
+
+#: Rows that hold at the start of a step (push-off), used to build the section's velocity.
+_SECTION_ROWS = (ph.ANKLE_1_X, ph.ANKLE_1_Y, ph.KNEE_1, ph.KNEE_2, ph.TOE_2)
+
+
+class FlatFootWalker(Walker):
+    name = "flatfoot"
+    description = "flat-foot walker with knees, ankle springs and hip torque, Wang, Wei, Wang & Lv"
+    parameters = (
+        ParamSpec("gamma", 0.0, "rad", "slope angle (downhill positive)", lower=-0.5, upper=0.5),
+        positive("m_h", 0.678, "1", "hip and upper-body point mass"),
+        positive("m_t", 0.100, "1", "thigh point mass (each leg)"),
+        positive("m_s", 0.0465, "1", "shank point mass (each leg)"),
+        nonnegative("m_f", 0.0145, "1", "foot mass, lumped at the ankle (each leg)"),
+        positive("l_t", 0.5, "1", "thigh length, hip to knee"),
+        positive("l_s", 0.5, "1", "shank length, knee to ankle"),
+        ParamSpec("c_t", 0.433, "1", "thigh mass position below the hip, fraction of l_t", lower=0.0, upper=1.0),
+        ParamSpec("c_s", 0.433, "1", "shank mass position below the knee, fraction of l_s", lower=0.0, upper=1.0),
+        positive("l_f", 0.22, "1", "foot length, heel to toe"),
+        positive("r", 0.4, "1", "foot ratio, (heel to ankle) / (ankle to toe)"),
+        nonnegative("k", 0.03, "1", "ankle spring stiffness"),
+        ParamSpec("P", 0.0076, "1", "hip torque, + on the swing thigh, - on the stance thigh"),
+        nonnegative("delay", 0.066, "1", "knee-unlock delay after toe-strike"),
+        ParamSpec("knee_lock", 0.2, "rad", "knee flexion at the extension stop, where a knee locks", lower=0.0, upper=0.5),
+        nonnegative("scuff_tol", 0.03, "1", "allowed depth of the swing foot below ground"),
+    )
+    coordinates = ("x_h", "y_h", "thigh_1", "shank_1", "thigh_2", "shank_2")
+    phases = ph.PHASE_NAMES
+    guards = events.GUARD_NAMES
+    context = ph.CONTEXT
+    section_names = ("psi", "psi_dot")
+    n_constraints = ph.N_CONSTRAINTS
+
+    # ------------------------------------------------------------ mechanics
+    def points(self, q, params):
+        return geo.points(q, params)
+
+    def masses(self, params):
+        return geo.masses(params)
+
+    def constraints(self, q, params, ctx):
+        return ph.constraints(q, params, ctx)
+
+    def constraint_mask(self, phase, params):
+        return ph.PHASE_MASKS[phase]
+
+    def joint_forces(self, q, qd, params, phase, ctx):
+        return forces.joint_forces(q, params, phase, ctx)
+
+    def spring_energy(self, q, params, phase, ctx):
+        return forces.spring_energy(q, params, phase, ctx)
+
+    # ------------------------------------------------------------ events
+    def guard_values(self, t, y, params, phase, ctx):
+        return events.guard_values(self, t, y, params, phase, ctx)
+
+    def on_event(self, guard, t, y, params, phase, ctx):
+        return events.on_event(self, guard, t, y, params, phase, ctx)
+
+    # ------------------------------------------------------------ section
+    def section_to_state(self, v, params):
+        """Full state just after toe-strike from ``v = (psi, psi_dot)`` (see the module docstring)."""
+        psi, psi_dot = v[0], v[1]
+        length, delta = geo.chord(params)
+        _, a_t = geo.foot_arms(params)
+        kappa = params["knee_lock"]
+        hip = -length * geo.distal(psi)
+        th1, th2 = psi + delta, -psi + delta
+        q = jnp.stack([hip[0], hip[1], th1, th1 - kappa, th2, th2 - kappa])
+        ctx = jnp.zeros(len(self.context), v.dtype)
+        ctx = ctx.at[ph.C["x_toe_2"]].set(-2.0 * length * jnp.sin(psi) + a_t)
+        # Velocity: the push-off constraints hold, and thigh_1 turns at psi_dot.
+        sigma = jax.jacfwd(ph.constraints)(q, params, ctx)[jnp.array(_SECTION_ROWS)]
+        lhs = jnp.concatenate([sigma, jnp.eye(6, dtype=v.dtype)[geo.THIGH_1][None]], axis=0)
+        rhs = jnp.zeros(6, v.dtype).at[-1].set(psi_dot)
+        qd = jnp.linalg.solve(lhs, rhs)
+        y = jnp.concatenate([q, qd])
+        t0 = jnp.zeros((), v.dtype)
+        # A toe that would pull leaves at once, a knee that would pull flexes at
+        # once; a failure already due at t = 0 is the engine's event at the start.
+        phase, ctx, _ = events.settle(self, t0, y, params, jnp.asarray(ph.PUSH_OFF, jnp.int32), ctx)
+        return y, phase, ctx
+
+    def state_to_section(self, y, params, ctx):
+        _, delta = geo.chord(params)
+        return jnp.stack([y[geo.THIGH_1] - delta, y[6 + geo.THIGH_1]])
+
+    def initial_guess(self, params):
+        # The nominal gait of the default parameters (docs/model.md), |res| < 1e-9.
+        return jnp.array([0.16327572732, -0.186444529299])
+
+    # ------------------------------------------------------------ extras
+    def reactions(self, y, params, phase, ctx):
+        """Ground reactions ``(stance, cop, toe_2, heel_2)``; see :func:`forces.contact_reactions`."""
+        q, _ = self.split(y)
+        _, lam = self.dynamics(y, params, phase, ctx)
+        return forces.contact_reactions(q, lam, params, phase, ctx)
+
+    def actuator_power(self, q, qd, params, phase, ctx):
+        """Power of the hip actuator (the recorder integrates it to work)."""
+        return forces.actuator_power(qd, params)
+
+    def actuator_work(self, y_start, y_end, params):
+        """Hip-actuator work between two states of one step (no swap in between)."""
+        return forces.actuator_work(y_start[:6], y_end[:6], params)

@@ -1,0 +1,237 @@
+"""The flat-foot walker against physics: conservation, contacts, impacts, the gait.
+
+Every program is compiled once per module (module-scoped fixtures): the step map,
+its forward-mode derivative along one direction, and the engine's recorder.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from jaxwalk.models import get_model
+from jaxwalk.models.flatfoot import events as ev
+from jaxwalk.models.flatfoot import forces as fo
+from jaxwalk.models.flatfoot import geometry as geo
+from jaxwalk.models.flatfoot import phases as ph
+from jaxwalk.simulate import AFTER_EVENT, BEFORE_EVENT, record_walk
+from jaxwalk.status import Status
+from jaxwalk.step import step_map
+
+MODEL = get_model("flatfoot")
+
+_reactions = jax.jit(MODEL.reactions)
+_energy = jax.jit(MODEL.energy)
+
+
+@jax.jit
+def _constraint_residuals(y, params, ctx):
+    position = MODEL.constraints(y[:6], params, ctx)
+    return position, jax.jacfwd(MODEL.constraints)(y[:6], params, ctx) @ y[6:]
+
+
+@jax.jit
+def _section_energy(v, params):
+    y, phase, ctx = MODEL.section_to_state(v, params)
+    return MODEL.energy(y, params, phase, ctx)
+
+
+#: The paper's seven phases (1-based) entered by each event of a nominal step.
+PAPER_PHASE_OF_EVENT = {
+    ev.KNEE_FLEX: 2,  # shank releasing starts when the knee leaves its stop
+    ev.TOE_OFF: 3,
+    ev.KNEE_STRIKE: 4,
+    ev.HEEL_STRIKE: 5,  # the impact; heel pivot (6) follows at once
+    ev.TOE_STRIKE: 7,
+}
+
+
+@pytest.fixture(scope="module")
+def params():
+    return MODEL.default_params()
+
+
+@pytest.fixture(scope="module")
+def step_fn():
+    return jax.jit(lambda v, p: step_map(MODEL, v, p))
+
+
+@pytest.fixture(scope="module")
+def tangent_fn():
+    # One direction at a time: a jvp compiles in about half the time of jacfwd.
+    return jax.jit(lambda v, dv, p: jax.jvp(lambda v_: step_map(MODEL, v_, p)[0], (v,), (dv,)))
+
+
+@pytest.fixture(scope="module")
+def fixed_point(params, step_fn, tangent_fn):
+    """Newton from the stored nominal gait; returns ``(v, J)``."""
+    v = MODEL.initial_guess(params)
+    eye = jnp.eye(2)
+    for _ in range(4):
+        v1, _ = step_fn(v, params)
+        jac = jnp.stack([tangent_fn(v, eye[i], params)[1] for i in range(2)], axis=1)
+        res = v1 - v
+        if float(jnp.linalg.norm(res)) < 1e-10:
+            break
+        v = v - jnp.linalg.solve(jac - eye, res)
+    return v, jac
+
+
+@pytest.fixture(scope="module")
+def walk(params, fixed_point):
+    """One recorded step from the gait (the engine's recorder, run_step's own state machine)."""
+    y0, phase0, ctx0 = MODEL.section_to_state(fixed_point[0], params)
+    return record_walk(MODEL, params, y0, phase0, ctx0, n_steps=1, dt=0.05)
+
+
+def _phases(walk):
+    """The recorded samples split into continuous phases: lists of ``(y, phase, ctx)``."""
+    out, current = [], []
+    for i in range(len(walk.time)):
+        if walk.sample_kind[i] == AFTER_EVENT and current:
+            out.append(current)
+            current = []
+        current.append((jnp.asarray(walk.y[i]), int(walk.phase[i]), jnp.asarray(walk.ctx[i])))
+    return out + [current]
+
+
+def _events(walk):
+    """``(guard, before, after)`` for each event; ``before``/``after`` are ``(y, phase, ctx)``."""
+    out = []
+    for i in np.flatnonzero(walk.sample_kind == BEFORE_EVENT):
+        state = lambda j: (jnp.asarray(walk.y[j]), int(walk.phase[j]), jnp.asarray(walk.ctx[j]))
+        out.append((int(walk.event_guard[i]), state(i), state(i + 1)))
+    return out
+
+
+# ----------------------------------------------------------------- the gait
+def test_nominal_gait_is_a_stable_fixed_point(params, step_fn, fixed_point):
+    v, jac = fixed_point
+    v1, res = step_fn(v, params)
+    assert int(res.status) == Status.OK
+    np.testing.assert_allclose(np.asarray(v1), np.asarray(v), atol=1e-8)
+    assert np.max(np.abs(np.linalg.eigvals(np.asarray(jac)))) < 1.0
+    assert float(res.length) > 0.0 and float(res.time) > 0.0
+
+
+def test_nominal_gait_visits_the_seven_phases_in_order(params, step_fn, fixed_point):
+    _, res = step_fn(fixed_point[0], params)
+    codes = ph.decode_history(np.asarray(res.ctx))
+    assert codes == [ev.UNLOCK, ev.KNEE_FLEX, ev.TOE_OFF, ev.KNEE_STRIKE, ev.HEEL_STRIKE, ev.TOE_STRIKE]
+    paper = [1] + [PAPER_PHASE_OF_EVENT[c] for c in codes if c in PAPER_PHASE_OF_EVENT]
+    assert paper == [1, 2, 3, 4, 5, 7]  # 6 (heel pivot) lies between the heel- and toe-strike events
+    times = [float(res.ctx[ph.C[name]]) for name in ("t_unlock", "t_knee_flex", "t_toe_off", "t_knee_strike", "t_heel_strike")]
+    assert times == sorted(times) and times[-1] < float(res.time)
+
+
+def test_recorded_step_matches_step_map(params, step_fn, fixed_point, walk):
+    _, res = step_fn(fixed_point[0], params)
+    assert walk.status == Status.OK and walk.steps_completed == 1
+    # The knee leaves its stop at the unlock itself, so push-off gives way to shank release at once.
+    assert [p[0][1] for p in _phases(walk)] == [ph.PUSH_OFF, ph.SHANK_RELEASE, ph.SWING, ph.LOCKED_SWING, ph.HEEL_PIVOT, ph.PUSH_OFF]
+    assert [e[0] for e in _events(walk)] == [ev.UNLOCK, ev.TOE_OFF, ev.KNEE_STRIKE, ev.HEEL_STRIKE, ev.TOE_STRIKE]
+    np.testing.assert_allclose(walk.y[-1], np.asarray(res.y), atol=1e-9)
+
+
+def test_jacobian_matches_central_differences(params, step_fn, tangent_fn, fixed_point):
+    v = fixed_point[0]
+    h = 1e-5
+    for i in range(2):
+        e = jnp.zeros(2).at[i].set(1.0)
+        _, column = tangent_fn(v, e, params)
+        plus, minus = step_fn(v + h * e, params)[0], step_fn(v - h * e, params)[0]
+        np.testing.assert_allclose(np.asarray(column), np.asarray((plus - minus) / (2 * h)), rtol=1e-4, atol=1e-5)
+
+
+# ----------------------------------------------------------------- physics
+def test_energy_minus_actuator_work_is_constant_in_every_phase(params, walk):
+    for states in _phases(walk)[:-1]:  # the last is the next step's first instant
+        y0, phase, ctx = states[0]
+        e0 = float(_energy(y0, params, phase, ctx))
+        for y, _, _ in states[1:]:
+            balance = float(_energy(y, params, phase, ctx)) - float(fo.actuator_work(y0[:6], y[:6], params))
+            assert abs(balance - e0) < 1e-8, (MODEL.phases[phase], balance - e0)
+
+
+def test_no_event_adds_energy(params, walk):
+    # Level ground: neither the swap of labels nor the move of the frame changes the energy.
+    assert float(params["gamma"]) == 0.0
+    losses = {}
+    for guard, (y0, p0, c0), (y1, p1, c1) in _events(walk):
+        losses[MODEL.guards[guard]] = float(_energy(y0, params, p0, c0)) - float(_energy(y1, params, p1, c1))
+    assert min(losses.values()) > -1e-10, losses
+    # The unlock (and the knee leaving its stop) costs nothing; toe-off loses the
+    # spring's energy; the three impacts dissipate.
+    assert abs(losses["unlock"]) < 1e-12
+    for impact in ("toe_off", "knee_strike", "toe_strike"):
+        assert losses[impact] > 1e-5
+
+
+def test_constraints_hold_along_the_step(params, walk):
+    for states in _phases(walk):
+        for y, phase, ctx in states:
+            mask = np.asarray(ph.PHASE_MASKS[phase])
+            position, velocity = _constraint_residuals(y, params, ctx)
+            assert np.max(np.abs(np.asarray(position) * mask)) < 1e-8
+            assert np.max(np.abs(np.asarray(velocity) * mask)) < 1e-8
+
+
+def test_stance_normal_forces_are_compressive(params, walk):
+    a_h, a_t = geo.foot_arms(params)
+    for states in _phases(walk):
+        for y, phase, ctx in states:
+            stance, cop, toe, heel = _reactions(y, params, phase, ctx)
+            assert float(stance[1]) > 0.0
+            assert float(toe[1]) > -1e-9  # the trailing toe pushes until it lifts
+            # The heel may pull by the model's rules (no bounce); in the nominal gait it does not.
+            assert float(heel[1]) >= 0.0
+            assert -float(a_h) < float(cop) < float(a_t)  # inside the flat stance foot
+
+
+def test_contact_impulses_are_compressive(params, walk):
+    masks = {
+        ev.KNEE_STRIKE: ph.PHASE_MASKS[ph.LOCKED_SWING],
+        ev.HEEL_STRIKE: ph.PHASE_MASKS[ph.HEEL_PIVOT],
+        ev.TOE_STRIKE: ph.TOE_STRIKE_MASK,
+    }
+    seen = []
+    for guard, (y, _, ctx), (_, _, ctx_after) in _events(walk):
+        if guard not in masks:
+            continue
+        # Heel-strike's anchor (the heel's contact point) is in the context after it.
+        ctx = ctx_after if guard == ev.HEEL_STRIKE else ctx
+        _, impulses = MODEL.apply_impact(y, params, ctx, masks[guard])
+        normal = np.asarray(ev.normal_impulses(y[:6], impulses, params, ctx))
+        assert np.all(normal > -1e-10), (MODEL.guards[guard], normal)
+        seen.append(guard)
+    assert seen == [ev.KNEE_STRIKE, ev.HEEL_STRIKE, ev.TOE_STRIKE]
+
+
+def test_section_round_trip_and_consistency(params, fixed_point):
+    v = fixed_point[0]
+    y, phase, ctx = MODEL.section_to_state(v, params)
+    assert int(phase) == ph.PUSH_OFF
+    np.testing.assert_allclose(np.asarray(MODEL.state_to_section(y, params, ctx)), np.asarray(v), atol=1e-14)
+    # Both feet flat on the ground: both ankles at height 0.
+    assert abs(float(geo.ankle(y[:6], params, 1)[1])) < 1e-14
+    assert abs(float(geo.ankle(y[:6], params, 2)[1])) < 1e-14
+
+
+# ----------------------------------------------------------------- no free lunch
+def test_no_gait_on_level_ground_without_hip_torque(params, step_fn):
+    """With P = 0 and gamma = 0 nothing puts energy in: every step loses some, so no gait."""
+    passive = dict(params, P=jnp.asarray(0.0))
+    for psi in (0.15, 0.25, 0.35):
+        for psi_dot in (-0.2, -0.4, -0.6):
+            v = jnp.array([psi, psi_dot])
+            energy = float(_section_energy(v, passive))
+            for _ in range(20):
+                v, res = step_fn(v, passive)
+                if int(res.status) != Status.OK:
+                    break
+                after = float(_section_energy(v, passive))
+                assert after < energy - 1e-6
+                energy = after
+            assert int(res.status) != Status.OK
