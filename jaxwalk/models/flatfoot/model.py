@@ -128,3 +128,40 @@ class FlatFootWalker(Walker):
     def actuator_work(self, y_start, y_end, params):
         """Hip-actuator work between two states of one step (no swap in between)."""
         return forces.actuator_work(y_start[:6], y_end[:6], params)
+
+    # ------------------------------------------------------------ drawing
+    def _feet(self, q, params, ctx):
+        """``(2, 2, 2)`` heel and toe of foot 1 (stance, flat) and foot 2.
+
+        Foot 2's pose is read off the geometry (figures get no phase): pivoting on
+        its toe or heel anchor while the ankle sits at the arm's distance from it
+        (the contact constraint holds), else held perpendicular to its shank.
+        """
+        a_h, a_t = geo.foot_arms(params)
+        ankle_1, ankle_2 = geo.ankle(q, params, 1), geo.ankle(q, params, 2)
+        flat = geo.foot_direction(jnp.zeros_like(a_h))
+        foot_1 = jnp.stack([ankle_1 - a_h * flat, ankle_1 + a_t * flat])
+        _, toe_2, heel_2, _ = ph.anchors(params, ctx)
+        on_toe = jnp.abs(jnp.linalg.norm(ankle_2 - toe_2) - a_t) < 1e-6
+        on_heel = jnp.abs(jnp.linalg.norm(ankle_2 - heel_2) - a_h) < 1e-6
+        e_toe = geo.foot_direction(geo.toe_pivot_angle(ankle_2, toe_2))
+        e_heel = geo.foot_direction(geo.heel_pivot_angle(ankle_2, heel_2))
+        free_heel, free_toe = geo.free_foot(q, params, 2)
+        e = jnp.where(on_toe, e_toe, e_heel)
+        pivoting = on_toe | on_heel
+        heel = jnp.where(pivoting, ankle_2 - a_h * e, free_heel)
+        toe = jnp.where(pivoting, ankle_2 + a_t * e, free_toe)
+        return jnp.stack([foot_1, jnp.stack([heel, toe])])
+
+    def skeleton(self, q, params, ctx):
+        """``(2, 5, 2)`` polylines hip, knee, ankle, heel, toe of leg 1 and leg 2
+        in the slope frame (for :mod:`jaxwalk.figures`)."""
+        feet = self._feet(q, params, ctx)
+        legs = []
+        for i, leg in enumerate((1, 2)):
+            legs.append(jnp.stack([q[:2], geo.knee(q, params, leg), geo.ankle(q, params, leg), feet[i, 0], feet[i, 1]]))
+        return jnp.stack(legs)
+
+    def foot_points(self, q, params, ctx):
+        """``(2, 2, 2)`` heel and toe of each foot (for foot clearance)."""
+        return self._feet(q, params, ctx)
