@@ -80,8 +80,12 @@ class StepResult(NamedTuple):
     n_events: Array
 
 
-def _solve_phase(model: Walker, params, y, phase, ctx, t0, opts: SolverOptions):
-    """Integrate ``phase`` from ``t0`` until an event or the time limit."""
+def solve_phase(model: Walker, params, y, phase, ctx, t0, opts: SolverOptions, dense: bool = False):
+    """Integrate ``phase`` from ``t0`` until an event or the time limit.
+
+    Returns the diffrax ``Solution`` (saved at its end; with ``dense=True`` also
+    its interpolation, which the recorder of ``jaxwalk simulate`` samples).
+    """
     term = diffrax.ODETerm(model.vector_field)
 
     def smallest_guard(t, y, args, **kwargs):
@@ -106,7 +110,14 @@ def _solve_phase(model: Walker, params, y, phase, ctx, t0, opts: SolverOptions):
         max_steps=opts.max_solver_steps,
         adjoint=diffrax.ForwardMode(),
         throw=False,
+        saveat=diffrax.SaveAt(t1=True, dense=dense),
     )
+    return sol
+
+
+def _solve_phase(model: Walker, params, y, phase, ctx, t0, opts: SolverOptions):
+    """End time, end state and diffrax result of :func:`solve_phase`."""
+    sol = solve_phase(model, params, y, phase, ctx, t0, opts)
     return sol.ts[-1], sol.ys[-1], sol.result
 
 

@@ -87,39 +87,12 @@ def _observe(model: Walker, params, y, phase, ctx):
 @functools.lru_cache(maxsize=None)
 def _compiled(model: Walker, opts):
     """Jitted pieces of the recorder for one model and solver settings."""
-    import diffrax
     import jax
-    import jax.numpy as jnp
 
-    from jaxwalk.rootfind import BracketedNewton
-    from jaxwalk.step import end_phase
+    from jaxwalk.step import end_phase, solve_phase
 
     def advance(params, y, phase, ctx, t0, n_events):
-        # The phase solve of jaxwalk.step._solve_phase, with dense output.
-        term = diffrax.ODETerm(model.vector_field)
-
-        def smallest_guard(t, y, args, **kwargs):
-            return jnp.min(model.guard_values(t, y, *args))
-
-        event = diffrax.Event(
-            smallest_guard, root_finder=BracketedNewton(rtol=opts.event_tol, atol=opts.event_tol), direction=False
-        )
-        t1 = t0 + opts.phase_time_limit * model.time_scale(params)
-        sol = diffrax.diffeqsolve(
-            term,
-            opts.make_solver(),
-            t0=t0,
-            t1=t1,
-            dt0=None,
-            y0=y,
-            args=(params, phase, ctx),
-            event=event,
-            stepsize_controller=diffrax.PIDController(rtol=opts.rtol, atol=opts.atol),
-            max_steps=opts.max_solver_steps,
-            adjoint=diffrax.ForwardMode(),
-            throw=False,
-            saveat=diffrax.SaveAt(t1=True, dense=True),
-        )
+        sol = solve_phase(model, params, y, phase, ctx, t0, opts, dense=True)
         solved = (sol.ts[-1], sol.ys[-1], sol.result)
         return end_phase(model, params, t0, y, phase, ctx, solved, n_events, opts), sol.interpolation
 
