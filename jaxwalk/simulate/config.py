@@ -23,13 +23,13 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from jaxwalk.models import get_model
 from jaxwalk.sweep.config import (
     ConfigError,
     _did_you_mean,
     _kind,
     _name,
     _params,
+    model_of,
     parse_toml,
     read_config_text,
 )
@@ -124,15 +124,7 @@ def parse_simulate_config(
             raise fail(f"'{key}' must be a table ([{key}]), got {_kind(data[key])}")
 
     name = _name(data, fail)
-    model_name = data.get("model")
-    if model_name is None:
-        raise fail("missing 'model' (e.g. model = \"kneed\")")
-    if not isinstance(model_name, str):
-        raise fail(f"'model' must be a string, got {_kind(model_name)}")
-    try:
-        model = get_model(model_name)
-    except KeyError as err:
-        raise fail(err.args[0]) from None
+    model_name, model = model_of(data, fail, example="kneed")
     specs = model.param_specs
     params = _params(data.get("params", {}), specs, model_name, fail)
     fixed = {p: float(spec.default) for p, spec in specs.items()}

@@ -209,15 +209,7 @@ def parse_config(
             raise fail(f"'{key}' must be a table ([{key}]), got {_kind(data[key])}")
 
     name = _name(data, fail)
-    model_name = data.get("model")
-    if model_name is None:
-        raise fail("missing 'model' (e.g. model = \"simplest\")")
-    if not isinstance(model_name, str):
-        raise fail(f"'model' must be a string, got {_kind(model_name)}")
-    try:
-        model = get_model(model_name)
-    except KeyError as err:
-        raise fail(err.args[0]) from None
+    model_name, model = model_of(data, fail, example="simplest")
     specs: dict[str, ParamSpec] = model.param_specs
 
     params = _params(data.get("params", {}), specs, model_name, fail)
@@ -249,6 +241,19 @@ def parse_config(
 
 
 # ---------------------------------------------------------------- sections
+
+
+def model_of(data: Mapping, fail, example: str):
+    """``(name, model)`` named by a config's ``model`` key; ``fail(message)`` otherwise."""
+    model_name = data.get("model")
+    if model_name is None:
+        raise fail(f"missing 'model' (e.g. model = \"{example}\")")
+    if not isinstance(model_name, str):
+        raise fail(f"'model' must be a string, got {_kind(model_name)}")
+    try:
+        return model_name, get_model(model_name)
+    except KeyError as err:
+        raise fail(err.args[0]) from None
 
 
 def _name(data, fail) -> str:
