@@ -28,6 +28,7 @@ class Status(enum.IntEnum):
     NO_CONVERGENCE = 9
     SOLVER_FAILED = 10
     KNEE_BUCKLED = 11
+    NOT_DIFFERENTIABLE = 12
     IN_PROGRESS = 127  # internal: a step still running; never written to a dataset
 
 
@@ -45,6 +46,7 @@ STATUS_MEANINGS: dict[Status, str] = {
     Status.NO_CONVERGENCE: "Newton's method did not converge to a fixed point",
     Status.SOLVER_FAILED: "the ODE solver failed (step-size underflow or max steps)",
     Status.KNEE_BUCKLED: "a locked stance knee would have to pull to stay straight",
+    Status.NOT_DIFFERENTIABLE: "gait found, but no derivative: a fold (I - J singular) or a defective dominant eigenvalue",
     Status.IN_PROGRESS: "internal: step in progress",
 }
 
