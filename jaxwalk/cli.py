@@ -4,6 +4,8 @@ Commands:
     sweep CONFIG.toml --out DIR   run a config-driven sweep (docs/sweeps.md)
     simulate CONFIG.toml --steps N --out DIR [--drop H]
                                   walk N steps, record the trajectory, draw it (docs/simulate.md)
+    plot DATASET [--out DIR] [--vars VAR ...]
+                                  heatmaps and line plots of a sweep dataset (docs/plot.md)
 
 Each command is a small function ``cmd_<name>(args) -> exit status`` with its
 own ``add_<name>`` that declares its arguments; :func:`build_parser` lists
@@ -43,14 +45,14 @@ def add_sweep(sub) -> None:
     p.add_argument("config", metavar="CONFIG.toml", help="sweep config (see docs/sweeps.md)")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory; the dataset is DIR/<name>.zarr")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    p.add_argument("--no-plot", action="store_true", help="no quick-look figure DIR/<name>.png")
+    p.add_argument("--no-plot", action="store_true", help="no figures DIR/<name>_<variable>_<kind>.png (jaxwalk plot)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing DIR/<name>.zarr")
     p.add_argument("--max-points", type=_positive_int, default=None, metavar="N", help="largest grid accepted (default 10,000,000)")
     p.set_defaults(run=cmd_sweep)
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    """Run the sweep in CONFIG.toml and write DIR/<name>.zarr (and a quick-look DIR/<name>.png)."""
+    """Run the sweep in CONFIG.toml and write DIR/<name>.zarr (and its figures, as jaxwalk plot draws them)."""
     from jaxwalk.sweep.config import DEFAULT_MAX_POINTS, load_config
     from jaxwalk.sweep.runner import run_sweep
 
@@ -118,10 +120,49 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+# ---------------------------------------------------------------- plot
+
+
+def add_plot(sub) -> None:
+    p = sub.add_parser("plot", help="heatmaps and line plots of a sweep dataset", description=cmd_plot.__doc__)
+    p.add_argument("dataset", metavar="DATASET", help="a sweep dataset, DIR/<name>.zarr")
+    p.add_argument("--out", default=None, metavar="DIR", help="output directory (default: the dataset's directory)")
+    p.add_argument(
+        "--vars", nargs="+", default=None, metavar="VAR",
+        help="variables to draw (default: lambda_max h_max speed cost_of_transport, those with values)",
+    )
+    p.add_argument(
+        "--kind", action="append", choices=("heatmap", "lines"), default=None,
+        help="figure kind, repeatable (default: lines, and heatmaps when two axes have more than one value)",
+    )
+    p.add_argument("--x", default=None, metavar="AXIS", help="horizontal axis (default: the longest)")
+    p.add_argument("--y", default=None, metavar="AXIS", help="heatmap vertical axis / one curve per value (default: the next longest)")
+    p.add_argument(
+        "--at", action="append", default=None, metavar="AXIS=INDEX",
+        help="hold a further grid axis at this index, repeatable (default: a third axis as small multiples, others at index 0)",
+    )
+    p.add_argument("--format", default="png", choices=("png", "pdf", "svg"), help="file format (default png)")
+    p.set_defaults(run=cmd_plot)
+
+
+def cmd_plot(args: argparse.Namespace) -> int:
+    """Draw heatmaps (with the lambda_max = 1 contour) and line plots of a sweep
+    dataset's lambda_max, h_max, speed and cost of transport, failures masked and
+    named by status; one file per figure, DIR/<name>_<variable>_<kind>.<format>."""
+    from jaxwalk.plot import plot_dataset
+
+    paths = plot_dataset(
+        args.dataset, args.out, fmt=args.format, variables=args.vars, kinds=args.kind, x=args.x, y=args.y, at=args.at or None
+    )
+    for path in paths:
+        print(f"wrote {path}")
+    return EXIT_OK
+
+
 # ---------------------------------------------------------------- parser
 
 #: The commands, in the order ``--help`` lists them.
-COMMANDS: tuple[Callable, ...] = (add_sweep, add_simulate)
+COMMANDS: tuple[Callable, ...] = (add_sweep, add_simulate, add_plot)
 
 
 def build_parser() -> argparse.ArgumentParser:

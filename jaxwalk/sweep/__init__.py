@@ -1,8 +1,8 @@
 """Config-driven parameter sweeps: TOML in, an xarray/zarr dataset out.
 
 ``config`` checks and resolves a sweep, ``runner`` runs the analysis over its
-grid, ``dataset`` lays out and writes the results, ``quicklook`` draws a first
-figure. See ``docs/sweeps.md``.
+grid, ``dataset`` lays out and writes the results; :mod:`jaxwalk.plot` draws
+them. See ``docs/sweeps.md``.
 """
 
 from jaxwalk.sweep.config import (

@@ -1,0 +1,164 @@
+"""Heatmaps of a sweep variable over two grid axes, failures masked by status.
+
+Each panel draws, bottom to top:
+
+* the variable where a gait was found (status 0), on one viridis scale shared by all panels;
+* every failure region (status != 0) as a categorical overlay, one fixed colour
+  per status (:mod:`jaxwalk.plot.statuses`), named in the legend with its count;
+* unstable gaits (status 0, ``lambda_max >= 1``) hatched, so a value map of
+  speed or h_max still shows which gaits would not persist;
+* the ``lambda_max = 1`` contour, where ``lambda_max`` crosses 1.
+
+Cells are centred on the grid values (``shading="nearest"``), so a cell's
+colour is exactly the value computed there; nothing is interpolated.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import xarray as xr
+
+from jaxwalk.plot.labels import STABILITY_LIMIT, UNSTABLE, axis_label, figure_title, value_text, variable_label
+from jaxwalk.plot.layout import Layout, panel_views
+from jaxwalk.plot.statuses import failure_codes, legend_label, status_color, status_names
+from jaxwalk.status import Status
+
+#: Hatch of unstable gaits; its lines are drawn in :data:`HATCH_COLOR`.
+HATCH = "////"
+HATCH_COLOR = "0.1"
+#: Group id of the lambda_max = 1 contour (tests and callers find it by this).
+CONTOUR_GID = "lambda_max=1"
+
+
+def cell_edges(centres: np.ndarray) -> np.ndarray:
+    """``(n + 1,)`` cell edges around ascending ``(n,)`` centres: midpoints, ends mirrored."""
+    c = np.asarray(centres, np.float64)
+    mid = 0.5 * (c[1:] + c[:-1])
+    return np.concatenate([[c[0] - (mid[0] - c[0])], mid, [c[-1] + (c[-1] - mid[-1])]])
+
+
+def heatmap_figure(ds: xr.Dataset, name: str, layout: Layout):
+    """A :class:`matplotlib.figure.Figure` of ``ds[name]`` over ``layout.x`` (horizontal)
+    and ``layout.y`` (vertical), one panel per ``layout.panels`` value.
+
+    Args:
+        ds: a sweep dataset (:func:`jaxwalk.plot.source.check_sweep`).
+        name: a variable over the grid axes.
+        layout: from :func:`jaxwalk.plot.layout.choose_layout` with ``kind="heatmap"``.
+    """
+    from matplotlib.colors import Normalize
+    from matplotlib.figure import Figure  # no pyplot: no global backend or state
+
+    views = panel_views(ds, layout)
+    ncols = min(len(views), 4)
+    nrows = math.ceil(len(views) / ncols)
+    single = len(views) == 1
+    fig = Figure(figsize=(8.0, 5.6) if single else (2.9 * ncols + 1.8, 2.5 * nrows + 1.8), layout="constrained")
+    axes = fig.subplots(nrows, ncols, sharex=True, sharey=True, squeeze=False).ravel()
+    for ax in axes[len(views):]:
+        ax.set_visible(False)
+
+    finite = np.concatenate([v[name].where(v["status"] == Status.OK).values.ravel() for _, v in views])
+    finite = finite[np.isfinite(finite)]
+    norm = Normalize(*(finite.min(), finite.max()) if finite.size else (0.0, 1.0))
+    if finite.size and norm.vmin == norm.vmax:  # one value everywhere: still a readable scale
+        norm = Normalize(norm.vmin - 0.5 * (abs(norm.vmin) or 1.0), norm.vmax + 0.5 * (abs(norm.vmax) or 1.0))
+
+    counts: dict[int, int] = {}
+    drew_contour = drew_unstable = False
+    mesh = None
+    for ax, (index, view) in zip(axes, views):
+        mesh, c, u = _panel(ax, view, name, layout, norm, counts)
+        drew_contour |= c
+        drew_unstable |= u
+        if index is not None:
+            ax.set_title(value_text(ds, layout.panels, index), fontsize="medium")
+    for i, ax in enumerate(axes[: len(views)]):
+        if i + ncols >= len(views):  # no panel below this one
+            ax.set_xlabel(axis_label(ds, layout.x, long=single))
+        if ax.get_subplotspec().is_first_col():
+            ax.set_ylabel(axis_label(ds, layout.y, long=single))
+    if finite.size:
+        fig.colorbar(mesh, ax=axes[: len(views)].tolist(), label=variable_label(ds, name), shrink=0.9 if single else 0.7)
+    fig.suptitle(figure_title(ds, name, layout.fixed), fontsize="medium")
+    handles = _legend_handles(ds, counts, drew_contour, drew_unstable)
+    if not finite.size:
+        handles.insert(0, _patch("white", "no gait found anywhere on this view", edge="none"))
+    if handles:
+        fig.legend(handles=handles, loc="outside lower center", ncols=min(len(handles), 3), fontsize="small", frameon=False)
+    return fig
+
+
+def _panel(ax, view: xr.Dataset, name: str, layout: Layout, norm, counts: dict[int, int]):
+    """Draw one panel; add its failure counts to ``counts``; return
+    ``(value mesh, whether the contour was drawn, whether unstable gaits were hatched)``."""
+    from matplotlib import patheffects
+    from matplotlib.colors import ListedColormap
+
+    x, y = view[layout.x].values, view[layout.y].values
+    status = view["status"].transpose(layout.y, layout.x).values
+    ok = status == Status.OK
+    values = np.where(ok, view[name].transpose(layout.y, layout.x).values, np.nan)
+    # Points with a gait but no value (a variable NaN there) show the axes' face colour.
+    ax.set_facecolor("white")
+    mesh = ax.pcolormesh(x, y, np.ma.masked_invalid(values), shading="nearest", norm=norm, cmap="viridis")
+
+    codes = failure_codes(status)
+    if codes:
+        category = np.full(status.shape, -1)
+        for i, code in enumerate(codes):
+            category[status == code] = i
+            counts[code] = counts.get(code, 0) + int((status == code).sum())
+        cmap = ListedColormap([status_color(c) for c in codes])
+        ax.pcolormesh(
+            x, y, np.ma.masked_less(category, 0), shading="nearest", cmap=cmap, vmin=-0.5, vmax=len(codes) - 0.5
+        )
+
+    contour = unstable_drawn = False
+    if "lambda_max" in view and np.isfinite(view["lambda_max"].values).any():
+        lam = np.where(ok, view["lambda_max"].transpose(layout.y, layout.x).values, np.nan)
+        unstable = ok & (lam >= 1.0)
+        if unstable.any():
+            _hatch_cells(ax, cell_edges(x), cell_edges(y), unstable)
+            unstable_drawn = True
+        if unstable.any() and (lam < 1.0).any() and min(lam.shape) > 1:
+            cs = ax.contour(x, y, np.ma.masked_invalid(lam), levels=[1.0], colors="k", linewidths=1.6)
+            cs.set_gid(CONTOUR_GID)
+            cs.set(path_effects=[patheffects.withStroke(linewidth=3.2, foreground="white")])
+            contour = any(len(seg) for seg in cs.allsegs[0])
+    return mesh, contour, unstable_drawn
+
+
+def _hatch_cells(ax, x_edges: np.ndarray, y_edges: np.ndarray, mask: np.ndarray) -> None:
+    """Hatch the cells where ``mask`` (``(ny, nx)``) is true: one polygon per cell,
+    so the hatch follows the grid exactly (the pattern is aligned across cells)."""
+    from matplotlib.collections import PolyCollection
+
+    iy, ix = np.nonzero(mask)
+    x0, x1, y0, y1 = x_edges[ix], x_edges[ix + 1], y_edges[iy], y_edges[iy + 1]
+    verts = np.stack([np.stack([x0, y0], -1), np.stack([x1, y0], -1), np.stack([x1, y1], -1), np.stack([x0, y1], -1)], 1)
+    cells = PolyCollection(verts, facecolors="none", edgecolors=HATCH_COLOR, linewidths=0.0, hatch=HATCH)
+    cells.set_gid("unstable")
+    ax.add_collection(cells, autolim=False)
+
+
+def _patch(color: str, label: str, *, edge: str = "0.3", hatch: str | None = None):
+    from matplotlib.patches import Patch
+
+    return Patch(facecolor=color, edgecolor=edge, hatch=hatch, linewidth=0.6, label=label)
+
+
+def _legend_handles(ds: xr.Dataset, counts: dict[int, int], contour: bool, unstable: bool) -> list:
+    from matplotlib.lines import Line2D
+
+    handles = []
+    if contour:
+        handles.append(Line2D([], [], color="k", linewidth=1.6, label=STABILITY_LIMIT))
+    if unstable:
+        handles.append(_patch("white", UNSTABLE, edge=HATCH_COLOR, hatch=HATCH))
+    names = status_names(ds["status"])
+    for code in sorted(counts):
+        handles.append(_patch(status_color(code), legend_label(names.get(code, str(code)), counts[code])))
+    return handles

@@ -1,0 +1,74 @@
+"""Words on a figure: axis labels, variable labels with units, titles.
+
+Grid axes are labelled ``name: long name [units]`` from their coordinate's
+attributes (the parameter's spec); variables by a short symbol and units,
+since their ``long_name`` attributes are sentences.
+"""
+
+from __future__ import annotations
+
+import xarray as xr
+
+#: Short symbols (matplotlib mathtext) for the variables figures usually show.
+SYMBOLS = {
+    "lambda_max": r"$\lambda_{\max}$",
+    "h_max": r"$h_{\max}$",
+    "speed": "speed",
+    "cost_of_transport": "cost of transport",
+    "step_length": "step length",
+    "period": "step period",
+}
+#: What each shows, for titles.
+MEANINGS = {
+    "lambda_max": "local stability: largest eigenvalue modulus (stable below 1)",
+    "h_max": "global stability: largest survived step-down",
+    "speed": "mean walking speed",
+    "cost_of_transport": "cost of transport",
+    "step_length": "step length",
+    "period": "step period",
+}
+#: The legend text of the stability boundary.
+STABILITY_LIMIT = r"$\lambda_{\max} = 1$ (stability limit)"
+#: The legend text of gaits found but unstable.
+UNSTABLE = r"unstable gait ($\lambda_{\max} \geq 1$)"
+
+
+def _units(da: xr.DataArray) -> str:
+    units = da.attrs.get("units")
+    return f" [{units}]" if units and units != "1" else ""
+
+
+def axis_label(ds: xr.Dataset, axis: str, long: bool = True) -> str:
+    """``"gamma: slope angle (downhill positive) [rad]"``, or ``"gamma [rad]"`` without ``long``
+    (small multiples: the long form does not fit under a small panel)."""
+    coord = ds[axis]
+    long_name = coord.attrs.get("long_name") if long else None
+    return (f"{axis}: {long_name}" if long_name else axis) + _units(coord)
+
+
+def variable_label(ds: xr.Dataset, name: str) -> str:
+    """``"$h_{\\max}$ [m]"``: symbol and units, for a colour bar or a y axis."""
+    return SYMBOLS.get(name, name) + _units(ds[name])
+
+
+def variable_meaning(ds: xr.Dataset, name: str) -> str:
+    """One phrase on what ``name`` measures (its ``long_name`` when it is not a known one)."""
+    if name in MEANINGS:
+        return MEANINGS[name]
+    long = ds[name].attrs.get("long_name", name)
+    return long if len(long) <= 60 else long[:57] + "..."
+
+
+def value_text(ds: xr.Dataset, axis: str, index: int) -> str:
+    """``"a = 0.4 m"``: one value of a grid axis."""
+    units = ds[axis].attrs.get("units")
+    unit = f" {units}" if units and units != "1" else ""
+    return f"{axis} = {float(ds[axis].values[index]):.4g}{unit}"
+
+
+def figure_title(ds: xr.Dataset, name: str, fixed: dict[str, int]) -> str:
+    """``"simplest_slope (simplest): lambda_max, local stability ... \\n at a = 0.4 m"``."""
+    head = f"{ds.attrs.get('name', '?')} ({ds.attrs.get('model', '?')}): {SYMBOLS.get(name, name)}, {variable_meaning(ds, name)}"
+    if fixed:
+        head += "\nat " + ", ".join(value_text(ds, a, i) for a, i in fixed.items())
+    return head

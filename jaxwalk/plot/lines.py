@@ -1,0 +1,164 @@
+"""Line plots in the style of the paper's Figs. 5 and 6: a variable against one
+grid axis, one curve per value of another (lambda_m against foot ratio r, one
+line per foot length l_f).
+
+Gaits found are joined by lines (a failed point breaks the line); stable gaits
+are filled markers, unstable ones (``lambda_max >= 1``) open markers. Failed
+points have no value, so they are marked on a thin strip under each panel,
+one row per curve in the curve's colour, with one marker shape per status,
+named in the legend. ``lambda_max`` figures draw the stability limit
+``lambda_max = 1``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import xarray as xr
+
+from jaxwalk.plot.labels import STABILITY_LIMIT, UNSTABLE, axis_label, figure_title, value_text, variable_label
+from jaxwalk.plot.layout import Layout, panel_views
+from jaxwalk.plot.statuses import failure_codes, legend_label, status_marker, status_names
+from jaxwalk.status import Status
+
+#: Most curves in one panel; a longer curve axis is shown at this many evenly spaced values.
+MAX_CURVES = 8
+#: Group id of the stability-limit line (tests and callers find it by this).
+LIMIT_GID = "lambda_max=1"
+
+
+def curve_indices(n: int, max_curves: int = MAX_CURVES) -> list[int]:
+    """All of ``range(n)``, or ``max_curves`` evenly spaced indices including both ends."""
+    if n <= max_curves:
+        return list(range(n))
+    return np.unique(np.linspace(0, n - 1, max_curves).round().astype(int)).tolist()
+
+
+def lines_figure(ds: xr.Dataset, name: str, layout: Layout):
+    """A :class:`matplotlib.figure.Figure` of ``ds[name]`` against ``layout.x``, one
+    curve per ``layout.y`` value (a single curve when ``layout.y`` is ``None``),
+    one panel per ``layout.panels`` value.
+
+    Args:
+        ds: a sweep dataset (:func:`jaxwalk.plot.source.check_sweep`).
+        name: a variable over the grid axes.
+        layout: from :func:`jaxwalk.plot.layout.choose_layout` with ``kind="lines"``.
+    """
+    from matplotlib import colormaps
+    from matplotlib.figure import Figure  # no pyplot: no global backend or state
+
+    views = panel_views(ds, layout)
+    ncols = min(len(views), 3)
+    nrows = math.ceil(len(views) / ncols)
+    single = len(views) == 1
+    n_y = ds.sizes[layout.y] if layout.y else 1
+    picked = curve_indices(n_y)
+    # A sequential map keeps the curves' order readable (short foot to long foot).
+    colors = ["C0"] if layout.y is None else [colormaps["plasma"](f) for f in np.linspace(0.0, 0.85, len(picked))]
+    lam_known = "lambda_max" in ds and np.isfinite(ds["lambda_max"].values).any()
+    any_failed = any((v["status"].values != Status.OK).any() for _, v in views)
+
+    fig = Figure(figsize=(8.0, 5.2) if single else (3.6 * ncols + 2.4, 3.0 * nrows + 1.4), layout="constrained")
+    # Each panel is a value axes over a thin strip axes for the failed points (which have no value).
+    strip_height = 0.1 + 0.04 * len(picked) if any_failed else 0.0
+    grid = fig.add_gridspec(2 * nrows, ncols, height_ratios=[1.0, strip_height] * nrows if any_failed else [1.0, 1e-6] * nrows)
+    axes, strips = [], []
+    for k in range(len(views)):
+        r, c = divmod(k, ncols)
+        ax = fig.add_subplot(grid[2 * r, c], sharey=axes[0] if axes else None)
+        strip = fig.add_subplot(grid[2 * r + 1, c], sharex=ax) if any_failed else None
+        axes.append(ax)
+        strips.append(strip)
+
+    counts: dict[int, int] = {}
+    unstable_any = False
+    curve_handles: list = []
+    for i, (ax, strip, (index, view)) in enumerate(zip(axes, strips, views)):
+        drawn = _panel(ax, strip, view, name, layout, picked, colors, lam_known, counts)
+        unstable_any |= drawn["unstable"]
+        curve_handles = drawn["handles"]
+        if name == "lambda_max":
+            ax.axhline(1.0, color="k", linewidth=0.9, linestyle="--", gid=LIMIT_GID)
+        if index is not None:
+            ax.set_title(value_text(ds, layout.panels, index), fontsize="medium")
+        ax.grid(True, linewidth=0.4, alpha=0.5)
+        bottom = strip if strip is not None else ax
+        if strip is not None:
+            ax.tick_params(labelbottom=False)
+            _style_strip(strip, len(picked), first_col=i % ncols == 0)
+        if i + ncols >= len(views):  # no panel below this one
+            bottom.set_xlabel(axis_label(ds, layout.x, long=single))
+        if i % ncols == 0:
+            ax.set_ylabel(variable_label(ds, name))
+        else:
+            ax.tick_params(labelleft=False)
+    fig.suptitle(figure_title(ds, name, layout.fixed), fontsize="medium")
+
+    if layout.y is not None:
+        title = axis_label(ds, layout.y, long=False)
+        if len(picked) < n_y:
+            title += f"\n({len(picked)} of {n_y} values)"
+        fig.legend(handles=curve_handles, loc="outside right center", fontsize="small", title=title, title_fontsize="small")
+    keys = _key_handles(ds, name, counts, unstable_any, lam_known)
+    if keys:
+        fig.legend(handles=keys, loc="outside lower center", ncols=min(len(keys), 3), fontsize="small", frameon=False)
+    return fig
+
+
+def _panel(ax, strip, view: xr.Dataset, name: str, layout: Layout, picked, colors, lam_known: bool, counts: dict[int, int]) -> dict:
+    """Draw one panel's curves on ``ax`` and its failed points on ``strip`` (one row
+    per curve, top row the first curve); add failure counts to ``counts``."""
+    x = view[layout.x].values
+    handles = []
+    unstable_any = False
+    for row, (j, color) in enumerate(zip(picked, colors)):
+        curve = view.isel({layout.y: j}) if layout.y else view
+        status = curve["status"].transpose(layout.x).values
+        ok = status == Status.OK
+        y = np.where(ok, curve[name].transpose(layout.x).values, np.nan)
+        label = f"{float(view[layout.y].values[j]):.4g}" if layout.y else name
+        (line,) = ax.plot(x, y, "-", color=color, linewidth=1.5, label=label)
+        stable = ok.copy()
+        if lam_known:
+            lam = curve["lambda_max"].transpose(layout.x).values
+            unstable = ok & (lam >= 1.0)
+            stable &= ~unstable
+            if unstable.any():
+                unstable_any = True
+                ax.plot(x[unstable], y[unstable], "o", markersize=4, markerfacecolor="white", markeredgecolor=color, linestyle="none")
+        ax.plot(x[stable], y[stable], "o", markersize=3, color=color, linestyle="none")
+        handles.append(line)
+        for code in failure_codes(status):
+            sel = status == code
+            counts[code] = counts.get(code, 0) + int(sel.sum())
+            strip.plot(
+                x[sel], np.full(sel.sum(), -row), status_marker(code), color=color, markersize=5,
+                linestyle="none", gid=f"failed:{code}",
+            )
+    return {"handles": handles, "unstable": unstable_any}
+
+
+def _style_strip(strip, rows: int, *, first_col: bool) -> None:
+    """The failure strip: rows ``0, -1, ..., -(rows - 1)``, no y scale, labelled "failed"."""
+    strip.set_ylim(-rows + 0.4, 0.6)
+    strip.set_yticks([])
+    strip.set_facecolor("0.96")
+    if first_col:
+        strip.set_ylabel("failed", rotation=0, ha="right", va="center", fontsize="small")
+
+
+def _key_handles(ds: xr.Dataset, name: str, counts: dict[int, int], unstable: bool, lam_known: bool) -> list:
+    from matplotlib.lines import Line2D
+
+    handles = []
+    if name == "lambda_max":
+        handles.append(Line2D([], [], color="k", linewidth=0.9, linestyle="--", label=STABILITY_LIMIT))
+    if lam_known:
+        handles.append(Line2D([], [], marker="o", markersize=3, color="0.3", linestyle="none", label=r"stable gait ($\lambda_{\max} < 1$)"))
+    if unstable:
+        handles.append(Line2D([], [], marker="o", markersize=4, markerfacecolor="white", markeredgecolor="0.3", linestyle="none", label=UNSTABLE))
+    names = status_names(ds["status"])
+    for code in sorted(counts):
+        handles.append(Line2D([], [], marker=status_marker(code), color="0.2", linestyle="none", label=legend_label(names.get(code, str(code)), counts[code])))
+    return handles

@@ -1,0 +1,82 @@
+"""Failure statuses in figures: their names, one colour and one marker each, legend entries.
+
+Names come from the dataset's CF ``flag_values`` / ``flag_meanings`` (the file
+is the record of what its codes meant), falling back to :mod:`jaxwalk.status`;
+underscores become spaces for the reader ("no convergence"). Colours and
+markers are fixed per code so that "fell" looks the same in every figure, and
+the colours keep clear of viridis (the values' colour map): greys, reds,
+oranges, pinks, browns.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import xarray as xr
+
+from jaxwalk.status import Status, describe
+
+#: Fill colour of each failure code in heatmaps (and of its markers in line plots).
+STATUS_COLORS: dict[int, str] = {
+    Status.FELL: "#a9a9a9",  # grey: the common "no gait here"
+    Status.STALLED: "#8c564b",
+    Status.TIMEOUT: "#c49c94",
+    Status.NONFINITE: "#202020",
+    Status.RUNNING: "#ff7f0e",
+    Status.SHANK_RELEASING: "#e377c2",
+    Status.SCUFFING: "#d62728",
+    Status.TOO_MANY_EVENTS: "#f7b6d2",
+    Status.NO_CONVERGENCE: "#e8e8e8",  # near white: nothing was found
+    Status.SOLVER_FAILED: "#7f7f7f",
+    Status.KNEE_BUCKLED: "#ff9896",
+}
+#: Fallback for a code this version does not know.
+UNKNOWN_COLOR = "#5c3c00"
+
+#: Marker of each failure code in line plots.
+STATUS_MARKERS: dict[int, str] = {
+    Status.FELL: "v",
+    Status.STALLED: "s",
+    Status.TIMEOUT: "D",
+    Status.NONFINITE: "*",
+    Status.RUNNING: "^",
+    Status.SHANK_RELEASING: "<",
+    Status.SCUFFING: "x",
+    Status.TOO_MANY_EVENTS: ">",
+    Status.NO_CONVERGENCE: "o",
+    Status.SOLVER_FAILED: "P",
+    Status.KNEE_BUCKLED: "h",
+}
+
+
+def status_names(status: xr.DataArray) -> dict[int, str]:
+    """``{code: readable name}`` from the CF flag attributes of ``status`` (then :mod:`jaxwalk.status`)."""
+    names: dict[int, str] = {}
+    values, meanings = status.attrs.get("flag_values"), status.attrs.get("flag_meanings")
+    if values is not None and isinstance(meanings, str):
+        words = meanings.split()
+        values = np.atleast_1d(np.asarray(values)).tolist()
+        if len(words) == len(values):
+            names = {int(v): w for v, w in zip(values, words)}
+
+    def name(code: int) -> str:
+        return names.get(code, describe(code)).replace("_", " ")
+
+    return {int(c): name(int(c)) for c in np.unique(status.values)}
+
+
+def failure_codes(status: np.ndarray) -> list[int]:
+    """The failure codes (``!= 0``) present in ``status``, ascending."""
+    return [int(c) for c in np.unique(status) if c != Status.OK]
+
+
+def status_color(code: int) -> str:
+    return STATUS_COLORS.get(int(code), UNKNOWN_COLOR)
+
+
+def status_marker(code: int) -> str:
+    return STATUS_MARKERS.get(int(code), "d")
+
+
+def legend_label(name: str, count: int) -> str:
+    """``"fell (12 points)"``: the count says how much of the grid a status covers."""
+    return f"{name} ({count} point{'s' if count != 1 else ''})"
