@@ -28,6 +28,7 @@ STATUS_COLORS: dict[int, str] = {
     Status.NO_CONVERGENCE: "#e8e8e8",  # near white: nothing was found
     Status.SOLVER_FAILED: "#7f7f7f",
     Status.KNEE_BUCKLED: "#ff9896",
+    Status.NOT_DIFFERENTIABLE: "#dbb98c",
 }
 #: Fallback for a code this version does not know.
 UNKNOWN_COLOR = "#5c3c00"
@@ -45,6 +46,7 @@ STATUS_MARKERS: dict[int, str] = {
     Status.NO_CONVERGENCE: "o",
     Status.SOLVER_FAILED: "P",
     Status.KNEE_BUCKLED: "h",
+    Status.NOT_DIFFERENTIABLE: "p",
 }
 
 

@@ -1,0 +1,310 @@
+"""Figures of sweep datasets (jaxwalk.plot, ``jaxwalk plot``): failures masked and
+named, the lambda_max = 1 contour exactly where lambda_max crosses 1, layouts for
+1-D, 2-D and 3-D grids, files written, and bad input as one line with exit 2.
+
+Datasets are synthetic (:func:`synthetic`, through the real ``build_dataset``), so
+nothing is computed with JAX.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from jaxwalk import cli
+from jaxwalk.models import get_model
+from jaxwalk.plot import choose_layout, heatmap_figure, lines_figure, make_figures, plot_dataset
+from jaxwalk.plot.heatmap import CONTOUR_GID
+from jaxwalk.plot.layout import parse_at
+from jaxwalk.plot.lines import LIMIT_GID
+from jaxwalk.plot.source import PlotError, choose_variables
+from jaxwalk.status import Status
+from jaxwalk.sweep import loads_config
+from jaxwalk.sweep.dataset import build_dataset, write_zarr
+
+GRID_1D = 'gamma = { start = 0.002, stop = 0.019, num = 12 }\n'
+GRID_2D = 'gamma = { start = 0.01, stop = 0.1, num = 10 }\nm_h = { start = 2.0, stop = 20.0, num = 6 }\n'
+GRID_3D = GRID_2D + 'a = { values = [0.6, 0.4, 0.5] }\n'
+
+
+def synthetic(grid: str, *, model: str = "compass", failures=None, lam=(0.4, 1.6), h_max=False, cot=True, stability=True):
+    """A sweep dataset with ``lambda_max`` rising linearly along the first axis from
+    ``lam[0]`` to ``lam[1]`` (plus a little along the second), ``failures(u) -> status``
+    on the grid's unit coordinates ``u`` (one ``(S,)`` array per axis, 0 to 1), NaN
+    numbers where a point failed, as the runner writes them."""
+    text = f'name = "syn"\nmodel = "{model}"\n[grid]\n{grid}[analysis]\nstability = {str(stability).lower()}\n'
+    config = loads_config(text + ("h_max = { step = 0.001, count = 10 }\n" if h_max else ""))
+    spec = get_model(config.model)
+    n_v = len(spec.section_names)
+    mesh = np.meshgrid(*config.grid.values(), indexing="ij")
+    u = [(m - m.min()) / (np.ptp(m) or 1.0) for m in mesh]
+    status = (failures(u) if failures else np.zeros(u[0].shape)).astype(np.int8)
+    failed = status != Status.OK
+    lam_max = lam[0] + (lam[1] - lam[0]) * u[0] + (0.05 * u[1] if len(u) > 1 else 0.0)
+    nan = lambda a: np.where(failed, np.nan, a)  # noqa: E731
+    results = {
+        "status": status,
+        "lambda_max": nan(lam_max) if stability else np.full(u[0].shape, np.nan),
+        "eigenvalues": np.where(failed[..., None], np.nan, lam_max[..., None] * np.ones(n_v)).astype(complex),
+        "fixed_point": np.where(failed[..., None], np.nan, np.ones(u[0].shape + (n_v,))),
+        "period": nan(1.0 + u[0]),
+        "step_length": nan(0.5 + 0.1 * u[0]),
+        "speed": nan((0.5 + 0.1 * u[0]) / (1.0 + u[0])),
+        "work": nan(0.2 + 0.1 * u[0]),
+        "cost_of_transport": nan(0.1 + 0.05 * u[0]),
+        "newton_iterations": np.full(u[0].shape, 4, np.int32),
+        "h_max": nan(0.001 * np.round(10 * (1 - u[0]))),
+        "step_down_status": np.where(failed, status, Status.FELL).astype(np.int8),
+        "h_failed": nan(0.001 * np.round(10 * (1 - u[0])) + 0.001),
+    }
+    ds = build_dataset(config, spec, results)
+    # cost_of_transport is an optional variable: make its presence the test's choice.
+    if cot and "cost_of_transport" not in ds:
+        ds["cost_of_transport"] = (config.dims, results["cost_of_transport"], {"long_name": "cost of transport", "units": "1"})
+    if not cot and "cost_of_transport" in ds:
+        ds = ds.drop_vars("cost_of_transport")
+    return ds
+
+
+def three_failures(u):
+    """fell at the steep end, scuffing in a corner, no convergence along the lightest hip."""
+    s = np.zeros(u[0].shape, int)
+    s[u[0] > 0.85] = Status.FELL
+    s[(u[0] < 0.15) & (u[1] > 0.5)] = Status.SCUFFING
+    s[u[1] < 0.1] = Status.NO_CONVERGENCE
+    return s
+
+
+def legend_texts(fig) -> list[str]:
+    return [t.get_text() for legend in fig.legends for t in legend.get_texts()]
+
+
+def contours(fig) -> list:
+    return [c for ax in fig.axes for c in ax.collections if c.get_gid() == CONTOUR_GID]
+
+
+# ---------------------------------------------------------------- heatmaps
+
+
+def test_heatmap_masks_and_names_every_failure():
+    ds = synthetic(GRID_2D, failures=three_failures)
+    fig = heatmap_figure(ds, "lambda_max", choose_layout(ds, "heatmap"))
+    texts = legend_texts(fig)
+    status = ds["status"].values
+    for code, name in [(Status.FELL, "fell"), (Status.SCUFFING, "scuffing"), (Status.NO_CONVERGENCE, "no convergence")]:
+        n = int((status == code).sum())
+        assert f"{name} ({n} points)" in texts, texts
+    (ax,) = [a for a in fig.axes if a.get_label() != "<colorbar>"]
+    # The value mesh shows no failed point; the categorical overlay covers exactly the failures.
+    values, overlay = ax.collections[0].get_array(), ax.collections[1].get_array()
+    assert values.mask.sum() == (status != 0).sum() and (~overlay.mask).sum() == (status != 0).sum()
+
+
+def test_contour_exactly_where_lambda_max_crosses_one():
+    crossing = synthetic(GRID_2D, lam=(0.5, 1.5))
+    fig = heatmap_figure(crossing, "lambda_max", choose_layout(crossing, "heatmap"))
+    assert len(contours(fig)) == 1 and any("stability limit" in t for t in legend_texts(fig))
+    # Drawn on every variable's map, not only lambda_max's.
+    assert len(contours(heatmap_figure(crossing, "speed", choose_layout(crossing, "heatmap")))) == 1
+
+    stable = synthetic(GRID_2D, lam=(0.3, 0.8))
+    fig = heatmap_figure(stable, "lambda_max", choose_layout(stable, "heatmap"))
+    assert contours(fig) == [] and not any("stability limit" in t or "unstable" in t for t in legend_texts(fig))
+    no_stability = synthetic(GRID_2D, stability=False)
+    assert contours(heatmap_figure(no_stability, "speed", choose_layout(no_stability, "heatmap"))) == []
+
+
+def test_unstable_gaits_are_hatched():
+    ds = synthetic(GRID_2D, lam=(0.5, 1.5), failures=three_failures)
+    fig = heatmap_figure(ds, "h_max" if "h_max" in ds else "speed", choose_layout(ds, "heatmap"))
+    (hatched,) = [c for ax in fig.axes for c in ax.collections if c.get_gid() == "unstable"]
+    unstable = (ds["status"].values == 0) & (ds["lambda_max"].values >= 1)
+    assert len(hatched.get_paths()) == unstable.sum() > 0 and hatched.get_hatch()
+    assert any("unstable gait" in t for t in legend_texts(fig))
+
+
+def test_all_failed_grid_still_maps_its_failures():
+    ds = synthetic(GRID_2D, failures=lambda u: np.where(u[0] > 0.5, Status.FELL, Status.STALLED))
+    assert choose_variables(ds) == ["lambda_max", "speed", "cost_of_transport"]  # nothing computed, all mapped
+    fig = heatmap_figure(ds, "lambda_max", choose_layout(ds, "heatmap"))
+    texts = legend_texts(fig)
+    assert "fell (30 points)" in texts and "stalled (30 points)" in texts
+    assert any("no gait found" in t for t in texts) and contours(fig) == []
+
+
+def test_3d_grid_small_multiples_or_one_index():
+    ds = synthetic(GRID_3D, failures=three_failures)
+    layout = choose_layout(ds, "heatmap")
+    assert (layout.x, layout.y, layout.panels) == ("gamma", "m_h", "a")
+    assert [float(ds["a"][i]) for i in layout.panel_indices] == [0.4, 0.5, 0.6]  # panels by value
+    fig = heatmap_figure(ds, "lambda_max", layout)
+    titles = [ax.get_title() for ax in fig.axes if ax.get_title()]
+    assert titles == ["a = 0.4 m", "a = 0.5 m", "a = 0.6 m"]
+    assert f"fell ({int((ds['status'] == Status.FELL).sum())} points)" in legend_texts(fig)  # counted over every panel
+
+    one = choose_layout(ds, "heatmap", at={"a": 1})
+    assert one.panels is None and one.fixed == {"a": 1}
+    fig = heatmap_figure(ds, "lambda_max", one)
+    assert "at a = 0.4 m" in fig.get_suptitle() and len([a for a in fig.axes if a.get_title()]) == 0
+
+
+def test_layout_choices_and_errors():
+    ds = synthetic(GRID_2D)
+    assert (choose_layout(ds, "lines").x, choose_layout(ds, "lines").y) == ("gamma", "m_h")  # longest first
+    swapped = choose_layout(ds, "lines", x="m_h")
+    assert (swapped.x, swapped.y) == ("m_h", "gamma")
+    assert parse_at(["a=2", "m_h=-1"]) == {"a": 2, "m_h": -1}
+    for kwargs, fragment in [
+        ({"x": "gama"}, "--x: 'gama' is not a grid axis"),
+        ({"at": {"gamma": 10}}, "index 10 out of range for 'gamma'"),
+        ({"x": "gamma", "y": "gamma"}, "--x and --y are both 'gamma'"),
+        ({"x": "gamma", "at": {"gamma": 0}}, "also fixed by --at"),
+    ]:
+        with pytest.raises(PlotError, match=fragment):
+            choose_layout(ds, "heatmap", **kwargs)
+    with pytest.raises(PlotError, match="a heatmap needs two grid axes"):
+        choose_layout(synthetic(GRID_1D, model="simplest"), "heatmap")
+    with pytest.raises(PlotError, match="AXIS=INDEX"):
+        parse_at(["a:2"])
+
+
+# ---------------------------------------------------------------- line plots
+
+
+def test_1d_single_curve_failures_marked_by_status():
+    ds = synthetic(GRID_1D, model="simplest", failures=lambda u: np.where(u[0] > 0.8, Status.FELL, 0))
+    layout = choose_layout(ds, "lines")
+    assert layout.y is None and layout.panels is None
+    fig = lines_figure(ds, "lambda_max", layout)
+    curves = [ln for ax in fig.axes for ln in ax.get_lines() if ln.get_linestyle() == "-"]
+    assert len(curves) == 1
+    (failed,) = [ln for ax in fig.axes for ln in ax.get_lines() if ln.get_gid() == f"failed:{int(Status.FELL)}"]
+    np.testing.assert_array_equal(failed.get_xdata(), ds["gamma"].values[ds["status"].values == Status.FELL])
+    assert any(ln.get_gid() == LIMIT_GID for ax in fig.axes for ln in ax.get_lines())
+    assert f"fell ({len(failed.get_xdata())} points)" in legend_texts(fig)
+
+
+def test_2d_one_curve_per_value_of_the_other_axis():
+    grid = 'm_h = { values = [20.0, 5.0, 10.0] }\ngamma = { start = 0.01, stop = 0.1, num = 10 }\n'
+    ds = synthetic(grid, failures=lambda u: np.where(u[0] > 0.9, Status.SCUFFING, 0))
+    layout = choose_layout(ds, "lines")
+    assert (layout.x, layout.y) == ("gamma", "m_h")  # the paper's Fig. 5: against r, one line per l_f
+    fig = lines_figure(ds, "speed", layout)
+    labels = [t for t in legend_texts(fig)]
+    assert labels[:3] == ["5", "10", "20"]  # curves in ascending order of the value
+    assert fig.legends[0].get_title().get_text().startswith("m_h [kg]")
+    assert not any(ln.get_gid() == LIMIT_GID for ax in fig.axes for ln in ax.get_lines())  # only on lambda_max
+    assert "scuffing (10 points)" in labels
+
+
+def test_lines_of_a_3d_grid_are_small_multiples():
+    ds = synthetic(GRID_3D)
+    fig = lines_figure(ds, "lambda_max", choose_layout(ds, "lines"))
+    assert sorted(ax.get_title() for ax in fig.axes if ax.get_title()) == ["a = 0.4 m", "a = 0.5 m", "a = 0.6 m"]
+
+
+# ---------------------------------------------------------------- variables
+
+
+@pytest.mark.parametrize(
+    "kwargs, expected",
+    [
+        ({}, ["lambda_max", "speed", "cost_of_transport"]),
+        ({"cot": False}, ["lambda_max", "speed"]),
+        ({"h_max": True, "cot": False}, ["lambda_max", "h_max", "speed"]),
+        ({"stability": False}, ["speed", "cost_of_transport"]),
+    ],
+    ids=["plain", "no-cot", "h_max", "no-stability"],
+)
+def test_default_variables_are_those_with_values(kwargs, expected):
+    assert choose_variables(synthetic(GRID_2D, **kwargs)) == expected
+
+
+def test_requested_variables_are_checked():
+    ds = synthetic(GRID_2D, stability=False)
+    assert choose_variables(ds, ["period", "speed", "period"]) == ["period", "speed"]
+    with pytest.raises(PlotError, match="unknown variable 'sped' \\(did you mean 'speed'\\?\\)"):
+        choose_variables(ds, ["sped"])
+    with pytest.raises(PlotError, match="'lambda_max' has no values"):
+        choose_variables(ds, ["lambda_max"])
+    with pytest.raises(PlotError, match="unknown variable 'h_max'"):
+        choose_variables(ds, ["h_max"])
+
+
+# ---------------------------------------------------------------- files
+
+
+def test_plot_dataset_writes_one_file_per_figure(tmp_path):
+    store = write_zarr(synthetic(GRID_2D, h_max=True, failures=three_failures), tmp_path / "syn.zarr")
+    paths = plot_dataset(store)  # default: next to the dataset
+    names = sorted(p.name for p in paths)
+    assert names == sorted(f"syn_{v}_{k}.png" for v in ("lambda_max", "h_max", "speed", "cost_of_transport") for k in ("heatmap", "lines"))
+    assert all(p.parent == tmp_path and p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for p in paths)
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no temporary left
+
+    (svg,) = plot_dataset(store, tmp_path / "new" / "dir", fmt="svg", variables=["h_max"], kinds=["lines"])
+    assert svg.name == "syn_h_max_lines.svg" and b"<svg" in svg.read_bytes()[:400]
+
+
+def test_make_figures_draws_lines_only_for_a_1d_grid():
+    figures = make_figures(synthetic(GRID_1D, model="simplest", cot=False))
+    assert list(figures) == [("lambda_max", "lines"), ("speed", "lines")]
+
+
+def test_a_figure_failure_keeps_the_sweep_dataset(tmp_path, fake_analysis, monkeypatch):
+    import jaxwalk.plot
+    from jaxwalk.sweep import run_sweep
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("no display\nat all")
+
+    monkeypatch.setattr(jaxwalk.plot, "plot_dataset", broken)
+    config = loads_config(f'name = "kept"\nmodel = "compass"\n[grid]\n{GRID_2D}')
+    with pytest.warns(UserWarning, match="figures not written: no display at all"):
+        path = run_sweep(config, tmp_path, progress=False, analyse=fake_analysis())
+    with xr.open_dataset(path, engine="zarr") as ds:
+        assert ds.sizes["gamma"] == 10
+
+
+# ---------------------------------------------------------------- the command line
+
+
+@pytest.fixture
+def store(tmp_path):
+    return write_zarr(synthetic(GRID_2D, failures=three_failures), tmp_path / "data" / "syn.zarr")
+
+
+@pytest.mark.parametrize(
+    "args, fragment",
+    [
+        (["missing.zarr"], "dataset 'missing.zarr' not found"),
+        (["data/notes.txt"], "is not a zarr store"),
+        (["data/plain.zarr"], "is not a jaxwalk sweep dataset"),
+        (["data/syn.zarr", "--vars", "lamda_max"], "unknown variable 'lamda_max' (did you mean 'lambda_max'?)"),
+        (["data/line.zarr", "--kind", "heatmap"], "a heatmap needs two grid axes with more than one value each"),
+        (["data/syn.zarr", "--at", "a=1"], "--at: 'a' is not a grid axis"),
+        (["data/syn.zarr", "--format", "jpg"], "invalid choice: 'jpg'"),
+        (["data/syn.zarr", "--out", "data/notes.txt"], "exists and is not a directory"),
+    ],
+    ids=["missing", "not-zarr", "not-sweep", "unknown-var", "no-heatmap", "bad-at", "bad-format", "out-is-file"],
+)
+def test_bad_input_is_one_line_exit_2_nothing_written(tmp_path, store, monkeypatch, capsys, args, fragment):
+    (tmp_path / "data" / "notes.txt").write_text("not a dataset")
+    xr.Dataset({"x": ("i", np.arange(3.0))}).to_zarr(tmp_path / "data" / "plain.zarr", zarr_format=3, consolidated=False)
+    write_zarr(synthetic(GRID_1D, model="simplest"), tmp_path / "data" / "line.zarr")
+    before = sorted(tmp_path.rglob("*"))
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(["plot", *args]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and len(err.splitlines()) == 1 and err.startswith("jaxwalk: error: ") and fragment in err, err
+    assert sorted(tmp_path.rglob("*")) == before
+
+
+def test_command_line_writes_figures(tmp_path, store, run_cli):
+    proc = run_cli("plot", str(store), "--out", "figs", "--vars", "lambda_max", "--kind", "heatmap")
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == "wrote figs/syn_lambda_max_heatmap.png"
+    assert (tmp_path / "figs" / "syn_lambda_max_heatmap.png").is_file()
+    bad = run_cli("plot", str(store), "--vars", "nope")
+    assert bad.returncode == 2 and len(bad.stderr.splitlines()) == 1 and "Traceback" not in bad.stderr
