@@ -96,7 +96,7 @@ def plot_dataset(
             raise PlotError("out_dir is required when plotting a dataset that is not read from a file")
     else:
         ds = open_sweep(dataset)
-        out_dir = Path(dataset).resolve().parent if out_dir is None else out_dir
+        out_dir = Path(dataset).parent if out_dir is None else out_dir
     out = check_out_dir(out_dir)
     figures = make_figures(ds, **choices)
     out.mkdir(parents=True, exist_ok=True)
