@@ -96,6 +96,8 @@ def test_heatmap_masks_and_names_every_failure():
         n = int((status == code).sum())
         assert f"{name} ({n} points)" in texts, texts
     (ax,) = [a for a in fig.axes if a.get_label() != "<colorbar>"]
+    # Large regions carry their name on the map too.
+    assert {t.get_text() for t in ax.texts if t.get_gid() == "status-label"} == {"fell", "scuffing", "no convergence"}
     # The value mesh shows no failed point; the categorical overlay covers exactly the failures.
     values, overlay = ax.collections[0].get_array(), ax.collections[1].get_array()
     assert values.mask.sum() == (status != 0).sum() and (~overlay.mask).sum() == (status != 0).sum()

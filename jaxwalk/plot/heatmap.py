@@ -28,6 +28,8 @@ from jaxwalk.status import Status
 #: Hatch of unstable gaits; its lines are drawn in :data:`HATCH_COLOR`.
 HATCH = "////"
 HATCH_COLOR = "0.1"
+#: Smallest share of a panel a failure region needs to carry its name as well as its colour.
+MIN_LABELLED_FRACTION = 0.03
 #: Group id of the lambda_max = 1 contour (tests and callers find it by this).
 CONTOUR_GID = "lambda_max=1"
 
@@ -115,6 +117,9 @@ def _panel(ax, view: xr.Dataset, name: str, layout: Layout, norm, counts: dict[i
         ax.pcolormesh(
             x, y, np.ma.masked_less(category, 0), shading="nearest", cmap=cmap, vmin=-0.5, vmax=len(codes) - 0.5
         )
+        names = status_names(view["status"])
+        for code in codes:
+            _name_region(ax, x, y, status == code, names.get(code, str(code)))
 
     contour = unstable_drawn = False
     if "lambda_max" in view and np.isfinite(view["lambda_max"].values).any():
@@ -129,6 +134,20 @@ def _panel(ax, view: xr.Dataset, name: str, layout: Layout, norm, counts: dict[i
             cs.set(path_effects=[patheffects.withStroke(linewidth=3.2, foreground="white")])
             contour = any(len(seg) for seg in cs.allsegs[0])
     return mesh, contour, unstable_drawn
+
+
+def _name_region(ax, x: np.ndarray, y: np.ndarray, mask: np.ndarray, name: str) -> None:
+    """Write ``name`` on a failure region (``mask``, ``(ny, nx)``) large enough to hold it,
+    at its cell nearest the region's centroid (inside the region even when it is not convex)."""
+    if mask.sum() < max(4, MIN_LABELLED_FRACTION * mask.size):
+        return
+    iy, ix = np.nonzero(mask)
+    # Centroid in index space: axes may be unevenly spaced, the cells are what is seen.
+    k = np.argmin((iy - iy.mean()) ** 2 + (ix - ix.mean()) ** 2)
+    ax.text(
+        x[ix[k]], y[iy[k]], name, ha="center", va="center", fontsize="small", gid="status-label",
+        bbox={"boxstyle": "round,pad=0.2", "facecolor": "white", "alpha": 0.75, "linewidth": 0},
+    )
 
 
 def _hatch_cells(ax, x_edges: np.ndarray, y_edges: np.ndarray, mask: np.ndarray) -> None:

@@ -61,13 +61,14 @@ def lines_figure(ds: xr.Dataset, name: str, layout: Layout):
 
     fig = Figure(figsize=(8.0, 5.2) if single else (3.6 * ncols + 2.4, 3.0 * nrows + 1.4), layout="constrained")
     # Each panel is a value axes over a thin strip axes for the failed points (which have no value).
-    strip_height = 0.1 + 0.04 * len(picked) if any_failed else 0.0
-    grid = fig.add_gridspec(2 * nrows, ncols, height_ratios=[1.0, strip_height] * nrows if any_failed else [1.0, 1e-6] * nrows)
+    step = 2 if any_failed else 1
+    ratios = [1.0, 0.08 + 0.03 * len(picked)] if any_failed else [1.0]
+    grid = fig.add_gridspec(step * nrows, ncols, height_ratios=ratios * nrows)
     axes, strips = [], []
     for k in range(len(views)):
         r, c = divmod(k, ncols)
-        ax = fig.add_subplot(grid[2 * r, c], sharey=axes[0] if axes else None)
-        strip = fig.add_subplot(grid[2 * r + 1, c], sharex=ax) if any_failed else None
+        ax = fig.add_subplot(grid[step * r, c], sharey=axes[0] if axes else None)
+        strip = fig.add_subplot(grid[step * r + 1, c], sharex=ax) if any_failed else None
         axes.append(ax)
         strips.append(strip)
 
@@ -100,7 +101,7 @@ def lines_figure(ds: xr.Dataset, name: str, layout: Layout):
         if len(picked) < n_y:
             title += f"\n({len(picked)} of {n_y} values)"
         fig.legend(handles=curve_handles, loc="outside right center", fontsize="small", title=title, title_fontsize="small")
-    keys = _key_handles(ds, name, counts, unstable_any, lam_known)
+    keys = _key_handles(ds, name, counts, unstable_any, lam_known, subset=len(picked) < n_y)
     if keys:
         fig.legend(handles=keys, loc="outside lower center", ncols=min(len(keys), 3), fontsize="small", frameon=False)
     return fig
@@ -148,7 +149,7 @@ def _style_strip(strip, rows: int, *, first_col: bool) -> None:
         strip.set_ylabel("failed", rotation=0, ha="right", va="center", fontsize="small")
 
 
-def _key_handles(ds: xr.Dataset, name: str, counts: dict[int, int], unstable: bool, lam_known: bool) -> list:
+def _key_handles(ds: xr.Dataset, name: str, counts: dict[int, int], unstable: bool, lam_known: bool, subset: bool) -> list:
     from matplotlib.lines import Line2D
 
     handles = []
@@ -160,5 +161,5 @@ def _key_handles(ds: xr.Dataset, name: str, counts: dict[int, int], unstable: bo
         handles.append(Line2D([], [], marker="o", markersize=4, markerfacecolor="white", markeredgecolor="0.3", linestyle="none", label=UNSTABLE))
     names = status_names(ds["status"])
     for code in sorted(counts):
-        handles.append(Line2D([], [], marker=status_marker(code), color="0.2", linestyle="none", label=legend_label(names.get(code, str(code)), counts[code])))
+        handles.append(Line2D([], [], marker=status_marker(code), color="0.2", linestyle="none", label=legend_label(names.get(code, str(code)), counts[code], shown=subset)))
     return handles

@@ -79,6 +79,7 @@ def status_marker(code: int) -> str:
     return STATUS_MARKERS.get(int(code), "d")
 
 
-def legend_label(name: str, count: int) -> str:
-    """``"fell (12 points)"``: the count says how much of the grid a status covers."""
-    return f"{name} ({count} point{'s' if count != 1 else ''})"
+def legend_label(name: str, count: int, shown: bool = False) -> str:
+    """``"fell (12 points)"``: the count says how much of the grid a status covers
+    (``"fell (12 points shown)"`` when the figure shows only part of the grid)."""
+    return f"{name} ({count} point{'s' if count != 1 else ''}{' shown' if shown else ''})"
