@@ -20,6 +20,7 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 
+from jaxwalk import mechanics
 from jaxwalk.status import Status
 from jaxwalk.step import SolverOptions, step_map
 from jaxwalk.walker import Walker
@@ -134,7 +135,7 @@ def find_gait(
         # second derivatives ~1e3 for the simplest walker, so 1e-8 matters for J).
         v, k, converged = carry["v"], carry["k"], carry["converged"]
         r, jac_r, res = value_and_jacfwd(residual, v)
-        update = -jnp.linalg.solve(jac_r, r)
+        update = -mechanics.solve(jac_r, r)  # unrolled for small n_v: no LAPACK call in the loop
         size = jnp.max(jnp.abs(update))
         update = update * jnp.minimum(1.0, newton.max_update / jnp.maximum(size, 1e-300))
         step_failed = res.status != Status.OK

@@ -17,7 +17,13 @@ model's units (dimensionless for the flat-foot walker: M = L = g = 1).
 
 Constraints that are not active in a phase are switched off by a 0/1 mask rather
 than removed, so every phase has the same array shapes (a requirement for
-``vmap``): an inactive row of the KKT system reads ``lambda_i = 0``.
+``vmap``): an inactive row of the KKT system reads ``lambda_i = 0``. A mask whose
+value is known while tracing (the same in every phase) instead drops those rows
+from the linear system; the solution is the same.
+
+Small linear systems are solved by an unrolled Gaussian elimination with partial
+pivoting (see :func:`solve`): on CPU under ``vmap`` it is several times cheaper
+than LAPACK called per batch element, and has no LAPACK call to block on.
 """
 
 from __future__ import annotations
@@ -26,8 +32,14 @@ from typing import Callable
 
 import jax
 import jax.numpy as jnp
+import numpy as np
+from jax.custom_batching import custom_vmap
 
 Array = jax.Array
+
+#: Largest linear system (KKT matrix order) solved by the unrolled elimination
+#: below; larger ones go to LAPACK (``jnp.linalg.solve``).
+UNROLLED_SOLVE_MAX = 8
 
 
 def second_derivative_along(fn: Callable[[Array], Array], q: Array, qd: Array) -> Array:
@@ -40,6 +52,39 @@ def second_derivative_along(fn: Callable[[Array], Array], q: Array, qd: Array) -
     return jax.jvp(first, (q,), (qd,))[1]
 
 
+def jacobian_columns(fn: Callable[[Array], Array], q: Array) -> list[Array]:
+    """``[d fn / d q_k for k in range(n_q)]``, each shaped like ``fn(q)``.
+
+    One ``jvp`` per coordinate, kept as separate arrays: ``jax.jacfwd`` would
+    stack them on a new last axis, and under ``vmap`` the transposes and small
+    batched ``dot``s that follow cost more on CPU than the arithmetic itself.
+    """
+    basis = np.eye(q.shape[0])
+    return [jax.jvp(fn, (q,), (jnp.asarray(basis[k], q.dtype),))[1] for k in range(q.shape[0])]
+
+
+def _weighted_products(cols: list[Array], masses: Array) -> tuple[list, list]:
+    """Per-point-coordinate entries of the columns of ``T`` and their masses, as scalars."""
+    n_p = masses.shape[0]
+    flat = [c.reshape(n_p, -1) for c in cols]
+    dim = flat[0].shape[1]
+    entries = [[c[i, a] for i in range(n_p) for a in range(dim)] for c in flat]
+    weights = [masses[i] for i in range(n_p) for _ in range(dim)]
+    return entries, weights
+
+
+def _mass_from_columns(entries: list, weights: list) -> Array:
+    n = len(entries)
+    mass = [[None] * n for _ in range(n)]
+    for k in range(n):
+        for l in range(k, n):
+            value = 0.0
+            for e in range(len(weights)):
+                value = value + weights[e] * entries[k][e] * entries[l][e]
+            mass[k][l] = mass[l][k] = value
+    return jnp.stack([jnp.stack(row) for row in mass])
+
+
 def mass_matrix(points: Callable[[Array], Array], masses: Array, q: Array) -> Array:
     """Reduced mass matrix ``M_r = sum_i m_i T_i^T T_i``, shape ``(n_q, n_q)``.
 
@@ -48,8 +93,8 @@ def mass_matrix(points: Callable[[Array], Array], masses: Array, q: Array) -> Ar
         masses: ``(n_points,)`` masses.
         q: ``(n_q,)`` generalized coordinates.
     """
-    jac = jax.jacfwd(points)(q)  # (n_points, 2, n_q)
-    return jnp.einsum("i,iak,ial->kl", masses, jac, jac)
+    entries, weights = _weighted_products(jacobian_columns(points, q), masses)
+    return _mass_from_columns(entries, weights)
 
 
 def applied_forces(
@@ -59,21 +104,32 @@ def applied_forces(
 
     ``F_r = sum_i T_i^T m_i (g - Tdot_i qd)``; joint torques are added by the caller.
     """
-    jac = jax.jacfwd(points)(q)
-    convective = second_derivative_along(points, q, qd)  # (n_points, 2)
-    per_point = masses[:, None] * (gravity[None, :] - convective)
-    return jnp.einsum("iak,ia->k", jac, per_point)
+    return mass_matrix_and_forces(points, masses, gravity, q, qd)[1]
 
 
 def mass_matrix_and_forces(
     points: Callable[[Array], Array], masses: Array, gravity: Array, q: Array, qd: Array
 ) -> tuple[Array, Array]:
-    """:func:`mass_matrix` and :func:`applied_forces` sharing one Jacobian of ``points``."""
-    jac = jax.jacfwd(points)(q)
+    """:func:`mass_matrix` and :func:`applied_forces` sharing one Jacobian of ``points``.
+
+    Written entry by entry (each entry a scalar, a vector over the batch under
+    ``vmap``): on CPU this is several times faster than ``einsum`` over the
+    stacked Jacobian, and the same sums up to their order.
+    """
+    entries, weights = _weighted_products(jacobian_columns(points, q), masses)
     convective = second_derivative_along(points, q, qd)
-    mass = jnp.einsum("i,iak,ial->kl", masses, jac, jac)
-    per_point = masses[:, None] * (gravity[None, :] - convective)
-    return mass, jnp.einsum("iak,ia->k", jac, per_point)
+    n_p = masses.shape[0]
+    convective = convective.reshape(n_p, -1)
+    dim = convective.shape[1]
+    g = [gravity[a] for a in range(dim)]
+    per_point = [weights[e] * (g[e % dim] - convective[e // dim, e % dim]) for e in range(len(weights))]
+    forces = []
+    for k in range(len(entries)):
+        value = 0.0
+        for e in range(len(weights)):
+            value = value + entries[k][e] * per_point[e]
+        forces.append(value)
+    return _mass_from_columns(entries, weights), jnp.stack(forces)
 
 
 def kinetic_energy(points: Callable[[Array], Array], masses: Array, q: Array, qd: Array) -> Array:
@@ -94,10 +150,209 @@ def _kkt_matrix(mass: Array, sigma: Array, mask: Array) -> Array:
     i of ``Sigma^T`` is zero, so an inactive constraint neither acts nor constrains.
     """
     sigma_active = sigma * mask[:, None]
-    n_c = sigma.shape[0]
     top = jnp.concatenate([mass, -sigma_active.T], axis=1)
     bottom = jnp.concatenate([sigma_active, jnp.diag(1.0 - mask)], axis=1)
-    del n_c
+    return jnp.concatenate([top, bottom], axis=0)
+
+
+def static_mask(mask) -> np.ndarray | None:
+    """``mask`` as a NumPy 0/1 array when its value is known while tracing, else ``None``.
+
+    A model's ``constraint_mask`` is usually a constant of the phase; evaluated
+    under ``jax.ensure_compile_time_eval`` it is concrete, and the KKT system can
+    drop its inactive rows at trace time (see :func:`constrained_accelerations`).
+    """
+    try:
+        values = np.asarray(mask, dtype=np.float64)
+    except (jax.errors.TracerArrayConversionError, jax.errors.ConcretizationTypeError, TypeError):
+        return None
+    if values.ndim != 1 or not np.all((values == 0.0) | (values == 1.0)):
+        return None
+    return values
+
+
+# ---------------------------------------------------------------------------
+# Small dense solves: Gaussian elimination with partial pivoting, unrolled.
+#
+# Under ``vmap`` every entry below is a vector over the batch, so the whole
+# elimination is a few hundred elementwise operations that XLA fuses, instead of
+# one LAPACK ``getrf`` + two ``trsm`` calls (and a pivot-permutation loop) per
+# batch element, which cost more than the rest of the vector field together.
+# LAPACK's batched driver also splits the batch over the intra-op thread pool
+# and blocks on it: with two CPU devices running at once on two cores, both
+# were seen stuck there for good (the benchmark hung twice at N = 2048).
+# The pivoting is LAPACK's (the first entry of largest modulus in the column),
+# so results agree with ``jnp.linalg.solve`` to round-off; it is needed: the
+# simplest walker's 1e-12 foot mass makes the mass matrix nearly singular.
+#
+# Forward mode: ``dx = A^-1 (db - dA x)`` reuses the factors. When the tangents
+# are batched (``jacfwd``, ``vmap`` of ``jvp``), ``custom_vmap`` applies the
+# factors to every tangent column as separate batch-shaped vectors instead of
+# letting ``vmap`` add a small minor axis of size n_tangents to every operation
+# (elementwise chains ran ~2.5x slower per element that way on CPU).
+
+
+def _entries(a: Array) -> list[list[Array]]:
+    return [[a[i, j] for j in range(a.shape[1])] for i in range(a.shape[0])]
+
+
+def _lu_factor(a: list[list[Array]]):
+    """Factors of the square matrix ``a`` (rows of scalars): pivots, multipliers, U."""
+    n = len(a)
+    rows = [list(r) for r in a]
+    pivots, multipliers, upper = [], [], []
+    for k in range(n):
+        if k == n - 1:
+            upper.append(rows[0])
+            break
+        # The pivot: the first entry of largest modulus (LAPACK's idamax). As a
+        # reduction it is computed once; written as a chain of selects, XLA
+        # copies the chain into every fusion that uses it (measured 1.7x slower).
+        pivot = jnp.argmax(jnp.abs(jnp.stack([r[0] for r in rows]))).astype(jnp.int32)
+        chosen = [pivot == i for i in range(len(rows))]
+        top = []
+        for c in range(len(rows[0])):
+            value = rows[0][c]
+            for i in range(1, len(rows)):
+                value = jnp.where(chosen[i], rows[i][c], value)
+            top.append(value)
+        below, column = [], []
+        for i in range(1, len(rows)):
+            row = [jnp.where(chosen[i], rows[0][c], rows[i][c]) for c in range(len(rows[0]))]
+            factor = row[0] / top[0]
+            column.append(factor)
+            below.append([row[c] - factor * top[c] for c in range(1, len(row))])
+        pivots.append(pivot)
+        multipliers.append(column)
+        upper.append(top)
+        rows = below
+    return pivots, multipliers, upper
+
+
+def _lu_apply(factors, b: list[Array]) -> list[Array]:
+    """Solve with the factors of :func:`_lu_factor` for one right-hand side."""
+    pivots, multipliers, upper = factors
+    n = len(upper)
+    b = list(b)
+    for k, (pivot, column) in enumerate(zip(pivots, multipliers)):
+        rest = b[k:]
+        top = rest[0]
+        for i in range(1, len(rest)):
+            top = jnp.where(pivot == i, rest[i], top)
+        new = [top]
+        for i in range(1, len(rest)):
+            value = jnp.where(pivot == i, rest[0], rest[i])
+            new.append(value - column[i - 1] * top)
+        b = b[:k] + new
+    x = [None] * n
+    for k in range(n - 1, -1, -1):
+        row = upper[k]
+        value = b[k]
+        for j in range(k + 1, n):
+            value = value - row[j - k] * x[j]
+        x[k] = value / row[0]
+    return x
+
+
+@custom_vmap
+def _apply_factors(factors, r: Array) -> Array:
+    return jnp.stack(_lu_apply(factors, [r[i] for i in range(r.shape[0])]))
+
+
+@_apply_factors.def_vmap
+def _apply_factors_batched(axis_size, in_batched, factors, r):
+    factors_batched, r_batched = in_batched
+    if not r_batched:
+        r = jnp.broadcast_to(r, (axis_size,) + r.shape)
+    if not any(jax.tree_util.tree_leaves(factors_batched)):
+        # Same factors for every column (the tangents of one primal): one
+        # elimination sequence per column, each a vector over the outer batch.
+        cols = [_lu_apply(factors, [r[t, i] for i in range(r.shape[1])]) for t in range(axis_size)]
+        return jnp.stack([jnp.stack(col) for col in cols]), True
+    factors = jax.tree_util.tree_map(
+        lambda x, b: x if b else jnp.broadcast_to(x, (axis_size,) + jnp.shape(x)), factors, factors_batched
+    )
+    one = lambda f, rr: jnp.stack(_lu_apply(f, [rr[i] for i in range(rr.shape[0])]))
+    return jax.vmap(one)(factors, r), True
+
+
+@jax.custom_jvp
+def _unrolled_solve(a: Array, b: Array) -> Array:
+    factors = _lu_factor(_entries(a))
+    return jnp.stack(_lu_apply(factors, [b[i] for i in range(b.shape[0])]))
+
+
+@_unrolled_solve.defjvp
+def _unrolled_solve_jvp(primals, tangents):
+    a, b = primals
+    da, db = tangents
+    n = b.shape[0]
+    factors = _lu_factor(_entries(a))
+    x = _lu_apply(factors, [b[i] for i in range(n)])
+    r = []
+    for i in range(n):
+        value = db[i]
+        for j in range(n):
+            value = value - da[i, j] * x[j]
+        r.append(value)
+    x = jnp.stack(x)
+    # custom_linear_solve only to keep reverse mode: its transpose is a plain
+    # solve with a^T (custom_vmap itself cannot be transposed).
+    dx = jax.lax.custom_linear_solve(
+        lambda v: a @ v,
+        jnp.stack(r),
+        solve=lambda _, rhs: _apply_factors(factors, rhs),
+        transpose_solve=lambda _, rhs: jnp.linalg.solve(a.T, rhs),
+    )
+    return x, dx
+
+
+def solve(a: Array, b: Array) -> Array:
+    """``a^-1 b`` for a square ``a`` and a vector ``b``, with partial pivoting.
+
+    Orders up to :data:`UNROLLED_SOLVE_MAX` use the unrolled elimination (forward
+    and reverse differentiable; reverse mode solves with ``a^T`` by LAPACK);
+    larger ones ``jnp.linalg.solve``.
+    """
+    if a.shape[0] <= UNROLLED_SOLVE_MAX:
+        return _unrolled_solve(a, b)
+    return jnp.linalg.solve(a, b)
+
+
+def _looped_solve(a: Array, b: Array) -> Array:
+    """``a^-1 b`` by Gaussian elimination with partial pivoting in a ``fori_loop``.
+
+    Compiles to a small program (unlike the unrolled elimination) but runs several
+    times slower; for solves outside the integration loop (impacts).
+    """
+    n = a.shape[0]
+    w = jnp.concatenate([a, b[:, None]], axis=1)
+    rows = jnp.arange(n)
+
+    def eliminate(k, w):
+        column = jnp.where(rows >= k, jnp.abs(w[:, k]), -1.0)
+        p = jnp.argmax(column)  # the first largest, as LAPACK
+        row_k, row_p = w[k], w[p]
+        w = jnp.where((rows == k)[:, None], row_p[None, :], jnp.where((rows == p)[:, None], row_k[None, :], w))
+        factor = jnp.where(rows > k, w[:, k] / w[k, k], 0.0)
+        return w - factor[:, None] * w[k][None, :]
+
+    w = jax.lax.fori_loop(0, n - 1, eliminate, w)
+
+    def substitute(i, x):
+        k = n - 1 - i
+        value = w[k, n] - jnp.sum(jnp.where(rows > k, w[k, :n], 0.0) * x)
+        return x.at[k].set(value / w[k, k])
+
+    return jax.lax.fori_loop(0, n, substitute, jnp.zeros(n, w.dtype))
+
+
+def _reduced_kkt(mass: Array, sigma: Array, active: np.ndarray) -> Array:
+    """``[[M, -S^T], [S, 0]]`` with ``S`` the active rows of ``Sigma``."""
+    s = sigma[active]
+    m = len(active)
+    top = jnp.concatenate([mass, -s.T], axis=1)
+    bottom = jnp.concatenate([s, jnp.zeros((m, m), mass.dtype)], axis=1)
     return jnp.concatenate([top, bottom], axis=0)
 
 
@@ -113,7 +368,10 @@ def constrained_accelerations(
         forces: ``(n_q,)`` applied generalized forces.
         sigma: ``(n_c, n_q)`` constraint Jacobian.
         psi: ``(n_c,)`` convective constraint term ``Sigmadot qd``.
-        mask: ``(n_c,)`` 1.0 for active constraints, 0.0 otherwise.
+        mask: ``(n_c,)`` 1.0 for active constraints, 0.0 otherwise. When it is
+            known while tracing (a NumPy array, or see :func:`static_mask`), the
+            inactive rows are left out of the linear system instead of being
+            masked: the same solution with a smaller solve.
 
     Returns:
         ``qdd`` of shape ``(n_q,)`` and the multipliers ``lambda`` of shape
@@ -121,9 +379,17 @@ def constrained_accelerations(
         constraint, the ground's normal force on the foot, positive upward).
     """
     n_q = mass.shape[0]
+    n_c = sigma.shape[0]
+    known = static_mask(mask)
+    if known is not None:
+        active = np.flatnonzero(known)
+        kkt = _reduced_kkt(mass, sigma, active)
+        sol = solve(kkt, jnp.concatenate([forces, -psi[active]]))
+        lam = jnp.zeros(n_c, sol.dtype).at[active].set(sol[n_q:])
+        return sol[:n_q], lam
     kkt = _kkt_matrix(mass, sigma, mask)
     rhs = jnp.concatenate([forces, -psi * mask])
-    sol = jnp.linalg.solve(kkt, rhs)
+    sol = solve(kkt, rhs)
     return sol[:n_q], sol[n_q:]
 
 
@@ -136,7 +402,17 @@ def impact(mass: Array, qd_minus: Array, sigma: Array, mask: Array) -> tuple[Arr
         ``qd_plus`` of shape ``(n_q,)`` and the impulses ``Lambda`` of shape ``(n_c,)``.
     """
     n_q = mass.shape[0]
+    n_c = sigma.shape[0]
+    known = static_mask(mask)
+    if known is not None:
+        active = np.flatnonzero(known)
+        kkt = _reduced_kkt(mass, sigma, active)
+        sol = solve(kkt, jnp.concatenate([mass @ qd_minus, jnp.zeros(len(active), qd_minus.dtype)]))
+        impulses = jnp.zeros(n_c, sol.dtype).at[active].set(sol[n_q:])
+        return sol[:n_q], impulses
     kkt = _kkt_matrix(mass, sigma, mask)
-    rhs = jnp.concatenate([mass @ qd_minus, jnp.zeros(sigma.shape[0], qd_minus.dtype)])
-    sol = jnp.linalg.solve(kkt, rhs)
+    rhs = jnp.concatenate([mass @ qd_minus, jnp.zeros(n_c, qd_minus.dtype)])
+    # Once per event, not per vector-field evaluation: the looped elimination
+    # (no LAPACK, small program) where the unrolled one would be used.
+    sol = _looped_solve(kkt, rhs) if kkt.shape[0] <= UNROLLED_SOLVE_MAX else jnp.linalg.solve(kkt, rhs)
     return sol[:n_q], sol[n_q:]

@@ -158,7 +158,8 @@ class Walker:
     def constraint_terms(self, q: Array, qd: Array, params: Params, ctx: Array) -> tuple[Array, Array]:
         """``Sigma`` ``(n_c, n_q)`` and ``Psi`` ``(n_c,)`` (paper eqs. 3-4)."""
         xi = lambda q_: self.constraints(q_, params, ctx)
-        return jax.jacfwd(xi)(q), mechanics.second_derivative_along(xi, q, qd)
+        sigma = jnp.stack(mechanics.jacobian_columns(xi, q), axis=1)
+        return sigma, mechanics.second_derivative_along(xi, q, qd)
 
     def dynamics(self, y: Array, params: Params, phase: Array, ctx: Array) -> tuple[Array, Array]:
         """Accelerations ``(n_q,)`` and constraint forces ``(n_c,)`` in ``phase``."""
@@ -168,7 +169,11 @@ class Walker:
         mass, forces = mechanics.mass_matrix_and_forces(pts, masses, self.gravity(params), q, qd)
         forces = forces + self.joint_forces(q, qd, params, phase, ctx)
         sigma, psi = self.constraint_terms(q, qd, params, ctx)
-        return mechanics.constrained_accelerations(mass, forces, sigma, psi, self.constraint_mask(phase, params))
+        # A mask that does not depend on traced values (one constant for all
+        # phases) comes out concrete here, and the solve drops its inactive rows.
+        with jax.ensure_compile_time_eval():
+            mask = self.constraint_mask(phase, params)
+        return mechanics.constrained_accelerations(mass, forces, sigma, psi, mask)
 
     def vector_field(self, t: Array, y: Array, args: tuple) -> Array:
         """``dy/dt`` for diffrax: ``args = (params, phase, ctx)``."""
