@@ -1,0 +1,198 @@
+"""``jaxwalk optimize``: run a checked config, write the path dataset and its figure.
+
+Outputs, in ``--out DIR``:
+
+* ``<name>.zarr``: the path, dimensions ``iteration x start`` (and ``parameter``
+  for gradients): each optimised parameter, the objective, ``lambda_max``,
+  speed, step length, period, cost of transport, the status of every
+  evaluation (CF flags), whether it was accepted, the final point and status of
+  each start; with the resolved config, units and package versions in its
+  attributes; plus the background grid's ``heatmap_lambda_max`` and
+  ``heatmap_status`` on their own dimensions when one was computed.
+* ``<name>.png``: the paths drawn over the ``lambda_max`` heatmap (two axes) or
+  curve (one axis).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import warnings
+from pathlib import Path as FilePath
+
+import numpy as np
+import xarray as xr
+
+from jaxwalk.optimize.config import OptimizeConfig
+from jaxwalk.optimize.engine import QUANTITIES, Path, optimise
+from jaxwalk.status import Status, flag_attributes
+from jaxwalk.sweep.config import ConfigError
+from jaxwalk.sweep.dataset import output_units, package_versions, units_note, write_zarr
+
+_NEWTON_FIELDS = {"newton_tol": "tol", "max_newton_iter": "max_iter"}
+_SOLVER_FIELDS = {"rtol": "rtol", "atol": "atol"}
+
+
+def solver_options(config: OptimizeConfig):
+    """``(SolverOptions, NewtonOptions)`` from the defaults and ``[analysis]``."""
+    from jaxwalk.gait import NewtonOptions
+    from jaxwalk.step import SolverOptions
+
+    solver = dataclasses.replace(SolverOptions(), **{_SOLVER_FIELDS[k]: v for k, v in config.solver.items() if k in _SOLVER_FIELDS})
+    newton = dataclasses.replace(NewtonOptions(), **{_NEWTON_FIELDS[k]: v for k, v in config.solver.items() if k in _NEWTON_FIELDS})
+    return solver, newton
+
+
+def check_output(out_dir, name: str, overwrite: bool) -> tuple[FilePath, FilePath]:
+    """``(dataset, figure)`` paths if they can be written (nothing created). Raises ConfigError."""
+    from jaxwalk.sweep.runner import check_output as check_sweep_output
+
+    target = check_sweep_output(out_dir, name, overwrite=overwrite)
+    figure = FilePath(out_dir) / f"{name}.png"
+    if figure.exists() and not overwrite:
+        raise ConfigError(f"'{figure}' already exists (pass --overwrite to replace it)")
+    return target, figure
+
+
+def load_heatmap(path, names) -> xr.Dataset:
+    """A sweep dataset's ``lambda_max`` and ``status`` as the background. Raises ConfigError."""
+    try:
+        ds = xr.open_dataset(path, engine="zarr")
+    except Exception as err:  # a missing or unreadable store: one line
+        raise ConfigError(f"--heatmap '{path}': cannot open as a zarr dataset ({' '.join(str(err).split())[:200]})") from None
+    dims = [d for d in ds["lambda_max"].dims] if "lambda_max" in ds else []
+    if not dims or len(dims) > 2 or "status" not in ds:
+        raise ConfigError(f"--heatmap '{path}': needs lambda_max and status over one or two swept parameters")
+    if not set(dims) & set(names):
+        raise ConfigError(f"--heatmap '{path}': its axes ({', '.join(dims)}) include none of the optimised parameters ({', '.join(names)})")
+    return xr.Dataset({"heatmap_lambda_max": ds["lambda_max"], "heatmap_status": ds["status"]}).rename(
+        {d: f"heatmap_{d}" for d in dims}
+    ).load()
+
+
+def compute_heatmap(config: OptimizeConfig, model, solver, newton) -> xr.Dataset | None:
+    """The ``[heatmap]`` grid by :func:`jaxwalk.grid.analyse_grid` (``None`` without axes)."""
+    if not config.heatmap:
+        return None
+    from jaxwalk.grid import AnalysisOptions, analyse_grid
+
+    grid = {a.name: np.asarray(a.values) for a in config.heatmap}
+    first = {k: float(v[0]) for k, v in config.fixed_per_start().items()}
+    first.update({n: float(config.starts[0, i]) for i, n in enumerate(config.problem.names)})
+    fixed = {k: v for k, v in first.items() if k not in grid}
+    # Small chunks stay on one device: batched LAPACK calls from two device
+    # threads have deadlocked for the kneed and flat-foot walkers.
+    options = AnalysisOptions(solver=solver, newton=newton, chunk_size=32)
+    out = analyse_grid(model, fixed, grid, config.heatmap_continuation, options)
+    dims = [f"heatmap_{a}" for a in grid]
+    coords = {f"heatmap_{a}": (f"heatmap_{a}", v, {"long_name": model.param_specs[a].description, "units": model.param_specs[a].units}) for a, v in grid.items()}
+    return xr.Dataset(
+        {"heatmap_lambda_max": (dims, out["lambda_max"]), "heatmap_status": (dims, out["status"])}, coords=coords
+    )
+
+
+def build_dataset(config: OptimizeConfig, model, path: Path, heatmap: xr.Dataset | None, command: str | None) -> xr.Dataset:
+    """The path (and background) as a self-describing xarray dataset."""
+    p = config.problem
+    units = output_units(model)
+    q_units = {"lambda_max": "1", "speed": units["speed"], "step_length": units["length"], "period": units["time"], "cost_of_transport": "1"}
+    dims = ("iteration", "start")
+    data = {}
+    for i, n in enumerate(p.names):
+        spec = model.param_specs[n]
+        data[n] = (dims, path.params[:, :, i], {"long_name": spec.description, "units": spec.units})
+        data[f"final_{n}"] = (("start",), path.final_params[:, i], {"long_name": f"last accepted {n}", "units": spec.units})
+        data[f"best_{n}"] = (("start",), path.best_params[:, i], {"long_name": f"{n} at the accepted iterate of least merit", "units": spec.units})
+    sign = "-" if p.sign < 0 else ""
+    data["objective"] = (dims, path.objective, {"long_name": f"objective: {sign}{p.objective} (minimised)", "units": q_units[p.objective]})
+    for q in QUANTITIES:
+        data[q] = (dims, path.metrics[q], {"long_name": q.replace("_", " "), "units": q_units[q]})
+    data["gradient"] = (dims + ("parameter",), path.gradient, {"long_name": "d objective / d parameter", "units": "objective units per parameter unit"})
+    flags = flag_attributes()
+    data["status"] = (dims, path.status, {"long_name": "status of the gait search at this iterate", **flags})
+    data["accepted"] = (dims, path.accepted, {"long_name": "iterate kept (false: failed, undone)"})
+    data["final_status"] = (("start",), path.final_status, {"long_name": "ok, or the status the start ended with", **flags})
+    data["ended_at"] = (("start",), path.ended_at, {"long_name": "iteration at which the start ended"})
+    data["best_iteration"] = (("start",), path.best_row, {"long_name": "iteration of least merit (objective + penalty/2 sum c^2), -1: none accepted"})
+    for name, values in config.start_fixed.items():
+        spec = model.param_specs[name]
+        data[name] = (("start",), values, {"long_name": spec.description, "units": spec.units})
+    if p.hold:
+        data["multiplier"] = (dims + ("held",), path.multipliers, {"long_name": "augmented Lagrangian multiplier"})
+    coords = {
+        "iteration": ("iteration", np.arange(path.status.shape[0])),
+        "start": ("start", np.arange(path.status.shape[1])),
+        "parameter": ("parameter", np.array(p.names)),
+    }
+    if p.hold:
+        coords["held"] = ("held", np.array(list(p.hold)))
+    ds = xr.Dataset(data, coords=coords)
+    if heatmap is not None:
+        ds = ds.merge(heatmap)
+    ds.attrs.update(
+        {
+            "title": f"jaxwalk optimisation '{config.name}' of the {config.model} model",
+            "Conventions": "CF-1.10",
+            "name": config.name,
+            "model": config.model,
+            "units_note": units_note(model),
+            "method": "projected Adam (optax) in parameters scaled to their bounds; gradients by the implicit "
+            "function theorem at each fixed point; held quantities by an augmented Lagrangian",
+            "config": config.to_json(),
+            "command": command or "",
+            **{f"{k}_version": v for k, v in {**package_versions(), "optax": _optax_version()}.items()},
+        }
+    )
+    return ds
+
+
+def _optax_version() -> str:
+    import importlib.metadata
+
+    try:
+        return importlib.metadata.version("optax")
+    except importlib.metadata.PackageNotFoundError:
+        return "not installed"
+
+
+def run_optimize(config: OptimizeConfig, out_dir, *, heatmap_path=None, heatmap: bool = True, plot: bool = True,
+                 overwrite: bool = False, command: str | None = None, progress: bool = False) -> tuple[FilePath, xr.Dataset]:
+    """Check the outputs, optimise, compute or load the background, write dataset and figure."""
+    from jaxwalk.models import get_model
+
+    target, figure = check_output(out_dir, config.name, overwrite)
+    background = load_heatmap(heatmap_path, config.problem.names) if heatmap_path is not None else None
+    model = get_model(config.model)
+    solver, newton = solver_options(config)
+    report = (lambda k: print(f"iteration {k}", flush=True)) if progress else None
+    path = optimise(model, config.problem, config.fixed_per_start(), config.starts, solver, newton, progress=report)
+    if background is None and heatmap:
+        background = compute_heatmap(config, model, solver, newton)
+    ds = build_dataset(config, model, path, background, command)
+    write_zarr(ds, target, overwrite=overwrite)
+    if plot:
+        try:
+            from jaxwalk.optimize.figure import draw_paths
+
+            draw_paths(ds, figure)
+        except Exception as err:  # a figure is a convenience; the dataset is written
+            warnings.warn(f"figure not written: {' '.join(str(err).split())}", stacklevel=2)
+    return target, ds
+
+
+def summary(ds: xr.Dataset) -> str:
+    """One line per start: final point, objective and status."""
+    from jaxwalk.status import describe
+
+    names = [str(n) for n in ds["parameter"].values]
+    lines = []
+    for s in ds["start"].values:
+        k = int(ds["ended_at"].sel(start=s))
+        best = int(ds["best_iteration"].sel(start=s))
+        point = ", ".join(f"{n} = {float(ds[f'best_{n}'].sel(start=s)):.5g}" for n in names)
+        obj = f"objective {float(ds['objective'].sel(start=s, iteration=best)):.5g} (best, iteration {best})" if best >= 0 else "no gait"
+        status = describe(int(ds["final_status"].sel(start=s)))
+        lines.append(f"start {int(s)}: {point}, {obj}, {status} at iteration {k}")
+    return "; ".join(lines)
+
+
+__all__ = ["run_optimize", "build_dataset", "compute_heatmap", "load_heatmap", "summary", "Status"]
