@@ -6,6 +6,8 @@ Commands:
                                   walk N steps, record the trajectory, draw it (docs/simulate.md)
     plot DATASET [--out DIR] [--vars VAR ...]
                                   heatmaps and line plots of a sweep dataset (docs/plot.md)
+    optimize CONFIG.toml --out DIR [--heatmap DATASET]
+                                  minimise lambda_max (or another metric) by gradients (docs/optimize.md)
 
 Each command is a small function ``cmd_<name>(args) -> exit status`` with its
 own ``add_<name>`` that declares its arguments; :func:`build_parser` lists
@@ -159,10 +161,41 @@ def cmd_plot(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+# ---------------------------------------------------------------- optimize
+
+
+def add_optimize(sub) -> None:
+    p = sub.add_parser(
+        "optimize", help="minimise lambda_max (or speed, ...) over parameters by gradients", description=cmd_optimize.__doc__
+    )
+    p.add_argument("config", metavar="CONFIG.toml", help="optimisation config (see docs/optimize.md)")
+    p.add_argument("--out", required=True, metavar="DIR", help="output directory; the path is DIR/<name>.zarr, the figure DIR/<name>.png")
+    p.add_argument("--heatmap", default=None, metavar="DATASET", help="a sweep dataset (zarr) to draw the paths over, instead of computing [heatmap]")
+    p.add_argument("--no-heatmap", action="store_true", help="no background grid")
+    p.add_argument("--no-plot", action="store_true", help="no figure DIR/<name>.png")
+    p.add_argument("--overwrite", action="store_true", help="replace existing outputs of the same name")
+    p.set_defaults(run=cmd_optimize)
+
+
+def cmd_optimize(args: argparse.Namespace) -> int:
+    """Minimise the objective of CONFIG.toml over its bounded parameters from every start
+    at once (projected optax steps on implicit-function gradients at the gait); write the path
+    DIR/<name>.zarr and draw it over the lambda_max heatmap, DIR/<name>.png."""
+    from jaxwalk.optimize import load_optimize_config, run_optimize, summary
+
+    config = load_optimize_config(args.config)
+    path, ds = run_optimize(  # checks --out (and --heatmap) before computing anything
+        config, args.out, heatmap_path=args.heatmap, heatmap=not args.no_heatmap, plot=not args.no_plot,
+        overwrite=args.overwrite, command=args.command_line,
+    )
+    print(f"wrote {path}: {summary(ds)}")
+    return EXIT_OK
+
+
 # ---------------------------------------------------------------- parser
 
 #: The commands, in the order ``--help`` lists them.
-COMMANDS: tuple[Callable, ...] = (add_sweep, add_simulate, add_plot)
+COMMANDS: tuple[Callable, ...] = (add_sweep, add_simulate, add_plot, add_optimize)
 
 
 def build_parser() -> argparse.ArgumentParser:
