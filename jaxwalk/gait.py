@@ -61,6 +61,10 @@ class Gait(NamedTuple):
         speed: ``step_length / period``.
         status: int8 :class:`~jaxwalk.status.Status`.
         iterations: Newton iterations used.
+        work: actuator work per step (model energy units; 0 for passive walkers).
+        cost_of_transport: ``work / (weight * step_length)``, the actuators'
+            mechanical cost of transport (dimensionless; 0 for passive walkers,
+            whose energy comes from gravity: ``sin(gamma)`` per unit weight and distance).
     """
 
     v: Array
@@ -72,6 +76,8 @@ class Gait(NamedTuple):
     speed: Array
     status: Array
     iterations: Array
+    work: Array
+    cost_of_transport: Array
 
 
 def step_residual(model: Walker, params, opts: SolverOptions):
@@ -155,6 +161,7 @@ def find_gait(
             "jac": jac_r + eye,
             "period": res.time,
             "length": res.length,
+            "work": res.work,
         }
 
     nan = jnp.full((), jnp.nan, dtype)
@@ -166,6 +173,7 @@ def find_gait(
         "jac": jnp.full((n_v, n_v), jnp.nan, dtype),
         "period": nan,
         "length": nan,
+        "work": nan,
     }
     out = jax.lax.while_loop(cond, body, carry0)
     ok = out["status"] == Status.OK
@@ -181,6 +189,8 @@ def find_gait(
         speed=blank(out["length"] / out["period"]),
         status=out["status"],
         iterations=out["k"],
+        work=blank(out["work"]),
+        cost_of_transport=blank(out["work"] / (model.weight(params) * out["length"])),
     )
 
 

@@ -139,7 +139,8 @@ def analyse_grid(
         Arrays with the grid's shape ``S`` in front: ``status`` (int8),
         ``lambda_max``, ``eigenvalues`` (complex, ``S + (n_v,)``),
         ``fixed_point`` (``S + (n_v,)``), ``jacobian`` (``S + (n_v, n_v)``),
-        ``period``, ``step_length``, ``speed``, ``newton_iterations``; with
+        ``period``, ``step_length``, ``speed``, ``work`` (actuator work per
+        step), ``cost_of_transport``, ``newton_iterations``; with
         ``options.step_down`` also ``h_max`` (NaN where no gait was found),
         ``step_down_status`` (int8, the first failed drop's status, ``OK`` if none
         failed up to the limit; where no gait was found, the gait's status) and
@@ -179,6 +180,8 @@ def analyse_grid(
         "period": gaits.period,
         "step_length": gaits.step_length,
         "speed": gaits.speed,
+        "work": gaits.work,
+        "cost_of_transport": gaits.cost_of_transport,
         "newton_iterations": gaits.iterations.astype(np.int32),
     }
     if options.step_down is not None:

@@ -69,6 +69,9 @@ class StepResult(NamedTuple):
         length: distance the stance foot moved (model length units).
         status: int8 :class:`~jaxwalk.status.Status`.
         n_events: number of events in the step.
+        work: work done by the walker's actuators over the step (model energy
+            units; 0 for passive walkers), summed phase by phase with
+            :meth:`~jaxwalk.walker.Walker.actuator_work`.
     """
 
     y: Array
@@ -78,6 +81,7 @@ class StepResult(NamedTuple):
     length: Array
     status: Array
     n_events: Array
+    work: Array
 
 
 def solve_phase(model: Walker, params, y, phase, ctx, t0, opts: SolverOptions, dense: bool = False):
@@ -217,10 +221,14 @@ def run_step(model: Walker, params, y0: Array, phase0: Array, ctx0: Array, opts:
         return carry[5] == in_progress
 
     def body(carry):
-        t, y, phase, ctx, length, status, n_events = carry
+        t, y, phase, ctx, length, status, n_events, work = carry
         solved = _solve_phase(model, params, y, phase, ctx, t, opts)
         end = end_phase(model, params, t, y, phase, ctx, solved, n_events, opts)
-        return (end.t_event, end.y_next, end.phase_next, end.ctx_next, length + end.shift, end.status, end.n_events)
+        # Work over the phase, from its start to the event (before the reset,
+        # which may relabel the legs); impacts do not move the joints.
+        work = work + model.actuator_work(y, end.y_event, params)
+        length = length + end.shift
+        return (end.t_event, end.y_next, end.phase_next, end.ctx_next, length, end.status, end.n_events, work)
 
     dtype = y0.dtype
     carry0 = (
@@ -231,9 +239,10 @@ def run_step(model: Walker, params, y0: Array, phase0: Array, ctx0: Array, opts:
         jnp.zeros((), dtype),
         in_progress,
         jnp.zeros((), jnp.int32),
+        jnp.zeros((), dtype),
     )
-    t, y, phase, ctx, length, status, n_events = jax.lax.while_loop(cond, body, carry0)
-    return StepResult(y, ctx, phase, t, length, status, n_events)
+    t, y, phase, ctx, length, status, n_events, work = jax.lax.while_loop(cond, body, carry0)
+    return StepResult(y, ctx, phase, t, length, status, n_events, work)
 
 
 def step_map(model: Walker, v: Array, params, opts: SolverOptions = SolverOptions(), ground_drop: Array | float = 0.0):

@@ -127,6 +127,15 @@ class Walker:
         """Elastic energy stored in springs (scalar). Default none."""
         return jnp.zeros((), q.dtype)
 
+    def actuator_work(self, y_start: Array, y_end: Array, params: Params) -> Array:
+        """Work done by the actuators from ``y_start`` to ``y_end`` within one phase
+        (scalar, model energy units). Default none: a passive walker."""
+        return jnp.zeros((), y_start.dtype)
+
+    def weight(self, params: Params) -> Array:
+        """Total weight, ``g`` times the sum of the point masses (model force units)."""
+        return params.get("g", 1.0) * jnp.sum(self.masses(params))
+
     def guard_values(self, t: Array, y: Array, params: Params, phase: Array, ctx: Array) -> Array:
         """*model* ``(len(guards),)``, positive while the phase goes on."""
         raise NotImplementedError

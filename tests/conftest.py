@@ -98,10 +98,12 @@ class FakeAnalysis:
             "period": 1.0 + s,
             "step_length": 0.5 + s,
             "speed": (0.5 + s) / (1.0 + s),
+            "work": 0.1 * s,
+            "cost_of_transport": 0.1 * s / (0.5 + s),
             "newton_iterations": np.full(s.shape, 4, np.int32),
         }
         failed = status != Status.OK
-        for key in ("lambda_max", "period", "step_length", "speed"):
+        for key in ("lambda_max", "period", "step_length", "speed", "work", "cost_of_transport"):
             out[key] = np.where(failed, np.nan, out[key])
         for key in ("eigenvalues", "fixed_point"):
             out[key] = np.where(failed[..., None], np.nan, out[key])

@@ -169,6 +169,22 @@ def test_no_event_adds_energy(params, walk):
         assert losses[impact] > 1e-5
 
 
+def test_step_work_pays_for_the_losses_of_the_periodic_step(params, step_fn, fixed_point, walk):
+    # On level ground the gait returns to the same state, so the hip's work over
+    # one step (StepResult.work, from the joint angles at each phase's ends)
+    # must equal what the events dissipate, and the recorder's integral of the
+    # hip power over the recorded step.
+    _, res = step_fn(fixed_point[0], params)
+    work = float(res.work)
+    losses = sum(
+        float(_energy(y0, params, p0, c0)) - float(_energy(y1, params, p1, c1))
+        for _, (y0, p0, c0), (y1, p1, c1) in _events(walk)
+    )
+    assert work > 0.0
+    assert abs(work - losses) < 1e-8 * max(1.0, work), (work, losses)
+    assert abs(work - float(walk.work[-1])) < 1e-8, (work, float(walk.work[-1]))
+
+
 def test_constraints_hold_along_the_step(params, walk):
     for states in _phases(walk):
         for y, phase, ctx in states:

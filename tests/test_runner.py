@@ -86,6 +86,8 @@ def fake_results(shape=(4,), n_v=3, **changes):
         "period": np.ones(shape),
         "step_length": np.ones(shape),
         "speed": np.ones(shape),
+        "work": np.zeros(shape),
+        "cost_of_transport": np.zeros(shape),
         "newton_iterations": np.full(shape, 3),
     }
     out.update(changes)

@@ -425,12 +425,12 @@ def _h_max(value, fail) -> dict[str, float | int] | None:
 def result_bytes_per_point(n_v: int, *, h_max: bool = False) -> int:
     """Bytes one grid point takes in the dataset (see :mod:`jaxwalk.sweep.dataset`).
 
-    status int8, newton_iterations int32, lambda_max, period, step_length, speed
-    float64, and per section coordinate a fixed-point float64 and an eigenvalue
-    (real and imaginary float64); with ``h_max`` also step_down_status int8 and
-    h_max, h_failed float64.
+    status int8, newton_iterations int32, lambda_max, period, step_length, speed,
+    work, cost_of_transport float64, and per section coordinate a fixed-point
+    float64 and an eigenvalue (real and imaginary float64); with ``h_max`` also
+    step_down_status int8 and h_max, h_failed float64.
     """
-    return 1 + 4 + 4 * 8 + n_v * (8 + 16) + ((1 + 2 * 8) if h_max else 0)
+    return 1 + 4 + 6 * 8 + n_v * (8 + 16) + ((1 + 2 * 8) if h_max else 0)
 
 
 def _unknown_param(key: str, specs: Mapping[str, ParamSpec], model: str) -> str:

@@ -8,6 +8,8 @@ parameter, in config order) and ``n_v = len(model.section_names)``:
 * ``eigenvalues_real``, ``eigenvalues_imag`` ``S + (eigen,)``;
 * ``fixed_point`` ``S + (section,)``, in section coordinates;
 * ``period``, ``step_length``, ``speed`` ``S``, in the model's units;
+* ``work`` ``S``, actuator work per step, and ``cost_of_transport`` ``S``, that
+  work per unit weight and distance (both 0 for passive walkers);
 * ``newton_iterations`` ``S``, int32;
 * with ``[analysis] h_max`` (global stability, :mod:`jaxwalk.stepdown`): ``h_max``
   ``S``, the largest survived step-down, in model length units;
@@ -43,14 +45,17 @@ VERSIONED = ("jax", "jaxlib", "diffrax", "equinox", "optimistix", "numpy", "xarr
 
 
 def output_units(model: Walker) -> dict[str, str]:
-    """Units of lengths, times and speeds in a model's results.
+    """Units of lengths, times, speeds and energies in a model's results.
 
     Every model declares ``units = {"length": ..., "time": ...}``
-    (:attr:`jaxwalk.walker.Walker.units`).
+    (:attr:`jaxwalk.walker.Walker.units`), and may declare ``"energy"``; without
+    it energies are dimensionless in a dimensionless model and ``kg m2 s-2``
+    (masses in kg) otherwise.
     """
     length, time = model.units["length"], model.units["time"]
     speed = "1" if (length, time) == ("1", "1") else f"{length} {time}-1"
-    return {"length": length, "time": time, "speed": speed}
+    energy = model.units.get("energy", "1" if (length, time) == ("1", "1") else f"kg {length}2 {time}-2")
+    return {"length": length, "time": time, "speed": speed, "energy": energy}
 
 
 def units_note(model: Walker) -> str:
@@ -150,6 +155,23 @@ def build_dataset(
             {"long_name": "distance the stance foot advances in one step, along the slope", "units": units["length"]},
         ),
         "speed": (dims, results["speed"], {"long_name": "mean speed along the slope, step_length / period", "units": units["speed"]}),
+        "work": (
+            dims,
+            results["work"],
+            {"long_name": "work done by the actuators in one step (0 for a passive walker)", "units": units["energy"]},
+        ),
+        "cost_of_transport": (
+            dims,
+            results["cost_of_transport"],
+            {
+                "long_name": "actuator work per unit weight per unit distance, work / (weight * step_length)",
+                "units": "1",
+                "comment": (
+                    "mechanical cost of transport of the actuators only; a passive walker's is 0 (gravity "
+                    "supplies its energy: sin(gamma) per unit weight and distance)"
+                ),
+            },
+        ),
         "newton_iterations": (
             dims,
             results["newton_iterations"],

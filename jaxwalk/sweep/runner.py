@@ -12,6 +12,7 @@ axes in grid order (``{name: (n_i,) float64}``), ``continuation_axis`` a key of
 from ``[analysis]`` (:func:`analysis_options`), and ``progress`` a callable
 taking the number of grid points just finished. For grid shape ``S`` it returns
 ``status`` (int, ``S``), ``lambda_max``, ``period``, ``step_length``, ``speed``,
+``work`` (actuator work per step), ``cost_of_transport``,
 ``newton_iterations`` (``S``), ``eigenvalues`` (complex, ``S + (n_v,)``) and
 ``fixed_point`` (``S + (n_v,)``); when ``options.step_down`` is set (``[analysis]
 h_max``) also ``h_max`` (float, ``S``; NaN where no gait), ``step_down_status``
@@ -49,9 +50,11 @@ RESULT_KEYS = {
     "period": False,
     "step_length": False,
     "speed": False,
+    "work": False,
+    "cost_of_transport": False,
     "newton_iterations": False,
 }
-_FLOATS = ("lambda_max", "eigenvalues", "fixed_point", "period", "step_length", "speed")
+_FLOATS = ("lambda_max", "eigenvalues", "fixed_point", "period", "step_length", "speed", "work", "cost_of_transport")
 #: Result arrays of the step-down test (``[analysis] h_max``), all of the grid's shape.
 STEP_DOWN_KEYS = ("h_max", "step_down_status", "h_failed")
 _VALID_CODES = np.array([int(s) for s in DATASET_STATUSES])
@@ -220,11 +223,11 @@ def check_results(
         if (out["h_max"] < 0).any():
             raise ValueError("the analysis returned a negative 'h_max'")
     out["eigenvalues"] = out["eigenvalues"].astype(np.complex128)
-    for key in ("lambda_max", "fixed_point", "period", "step_length", "speed"):
+    for key in ("lambda_max", "fixed_point", "period", "step_length", "speed", "work", "cost_of_transport"):
         out[key] = out[key].astype(np.float64)
     out["newton_iterations"] = out["newton_iterations"].astype(np.int32)
 
-    required = ["fixed_point", "period", "step_length", "speed"] + (["lambda_max", "eigenvalues"] if stability else [])
+    required = ["fixed_point", "period", "step_length", "speed", "work", "cost_of_transport"] + (["lambda_max", "eigenvalues"] if stability else [])
     required += ["h_max"] if step_down else []
     finite = np.ones(shape, bool)
     for key in required:
