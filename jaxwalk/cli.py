@@ -50,6 +50,14 @@ def add_sweep(sub) -> None:
     p.add_argument("--no-plot", action="store_true", help="no figures DIR/<name>_<variable>_<kind>.png (jaxwalk plot)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing DIR/<name>.zarr")
     p.add_argument("--max-points", type=_positive_int, default=None, metavar="N", help="largest grid accepted (default 10,000,000)")
+    p.add_argument(
+        "--chunk-size", type=_positive_int, default=None, metavar="N",
+        help="grid points per chunk: the unit of work, of resuming and of the zarr chunks (default 256)",
+    )
+    p.add_argument(
+        "--dask", default=None, metavar="ADDRESS",
+        help="compute the chunks on a Dask cluster: a scheduler address (tcp://host:8786), or 'local' for one on this machine",
+    )
     p.set_defaults(run=cmd_sweep)
 
 
@@ -66,6 +74,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         overwrite=args.overwrite,
         plot=not args.no_plot,
         command=args.command_line,
+        chunk_size=args.chunk_size,
+        dask=args.dask,
     )
     print(f"wrote {path}: {_status_summary(path)}")
     return EXIT_OK

@@ -1,24 +1,29 @@
 """Stability over a Cartesian grid of parameters, in chunks, on every CPU device.
 
-``analyse_grid`` is what ``jaxwalk sweep`` runs: it lays the grid out as one
+``analyse_grid`` cuts the grid into blocks (``chunk_shape``: at most
+``chunk_size`` points, whole continuation lines) and runs ``analyse_chunk`` on
+each; ``jaxwalk sweep`` runs the same blocks one by one (or on a Dask cluster)
+and streams each to disk. ``analyse_chunk`` lays its block out as one
 batch of configurations (or, with continuation, as lines along one axis),
-cuts it into chunks, runs each chunk as one jitted ``vmap`` program sharded
+cuts it into chunks, runs each chunk as one jitted ``vmap`` program split
 over the available devices (``XLA_FLAGS=--xla_force_host_platform_device_count``
-gives one CPU device per core), and returns NumPy arrays shaped like the grid.
+gives one CPU device per core; each device runs its share from its own thread),
+and returns NumPy arrays shaped like the grid.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import functools
+from concurrent.futures import ThreadPoolExecutor
 from typing import Callable, Mapping
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxwalk.continuation import continue_along, gaits_independent, seed_index, visiting_order
-from jaxwalk.gait import Gait, NewtonOptions
+from jaxwalk.continuation import continue_along, seed_index, visiting_order
+from jaxwalk.gait import Gait, NewtonOptions, find_gait
 from jaxwalk.step import SolverOptions
 from jaxwalk.stepdown import StepDownOptions, h_max
 from jaxwalk.walker import Walker
@@ -30,8 +35,11 @@ class AnalysisOptions:
 
     Attributes:
         solver, newton: integration and fixed-point settings.
-        chunk_size: configurations (or continuation lines) per jitted call;
-            rounded up to a multiple of the device count.
+        chunk_size: grid points per chunk (a block of the grid, the unit of
+            work, of resuming and of the dataset's zarr chunks; with
+            continuation, ``chunk_size // line length`` whole lines, at least
+            one); also the rows per jitted call, rounded up to a multiple of
+            the device count.
         step_down: settings of the global-stability test (the paper's h_m);
             ``None`` skips it.
     """
@@ -64,18 +72,79 @@ def parameter_grid(model: Walker, fixed: Mapping[str, float], grid: Mapping[str,
     return out
 
 
-def _shard_leading(tree, n_devices: int):
-    """Place the leading axis of every leaf across the CPU devices."""
-    if n_devices == 1:
-        return tree
-    mesh = jax.sharding.Mesh(np.array(jax.devices()[:n_devices]), ("batch",))
-    sharding = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec("batch"))
-    return jax.device_put(tree, sharding)
+#: Configurations per device that advance together through Newton's method and
+#: the ODE solves of one chunk. A vmapped while loop runs until its slowest
+#: element is done; in sub-batches of neighbouring grid points the iteration and
+#: step counts vary less, and each sub-batch stops on its own.
+SUB_BATCH = 64
+
+#: A chunk of independent configurations is split over the CPU devices only when
+#: each gets at least this many (every device compiles the program once, so small
+#: grids run on one device). Continuation lines are heavier: two per device.
+MIN_ROWS_PER_DEVICE = 32
+MIN_LINES_PER_DEVICE = 2
+
+
+def _in_sub_batches(fn, params, sub_batch: int):
+    """``vmap(fn)(params)`` over the leading axis, computed as ``lax.map`` over
+    sub-batches of ``sub_batch`` rows (the last one padded with copies of the last row)."""
+    n = jax.tree_util.tree_leaves(params)[0].shape[0]
+    sub = max(1, min(sub_batch, n))
+    n_sub = -(-n // sub)
+    pad = n_sub * sub - n
+
+    def split(x):
+        if pad:
+            x = jnp.concatenate([x, jnp.repeat(x[-1:], pad, axis=0)], axis=0)
+        return x.reshape((n_sub, sub) + x.shape[1:])
+
+    out = jax.lax.map(jax.vmap(fn), jax.tree_util.tree_map(split, params))
+    return jax.tree_util.tree_map(lambda x: x.reshape((n_sub * sub,) + x.shape[2:])[:n], out)
 
 
 @functools.lru_cache(maxsize=None)
-def _independent_program(model: Walker, solver: SolverOptions, newton: NewtonOptions):
-    return jax.jit(lambda p: gaits_independent(model, p, solver, newton))
+def _independent_program(model: Walker, solver: SolverOptions, newton: NewtonOptions, sub_batch: int = SUB_BATCH):
+    def one(p):
+        return find_gait(model, p, model.initial_guess(p), solver, newton)
+
+    # Per configuration the same computation as continuation.gaits_independent.
+    return jax.jit(lambda p: _in_sub_batches(one, dict(p), sub_batch))
+
+
+@functools.lru_cache(maxsize=1)
+def _device_threads(n_devices: int) -> ThreadPoolExecutor:
+    return ThreadPoolExecutor(n_devices, thread_name_prefix="jaxwalk-device")
+
+
+def _run_on_devices(program, block: dict[str, np.ndarray], min_rows_per_device: int = MIN_ROWS_PER_DEVICE):
+    """``program(block)`` as NumPy arrays, the rows split over the CPU devices.
+
+    Each device runs its own copy of the single-device program, launched from
+    its own Python thread (launched one after the other from one thread, the
+    devices' programs did not overlap: measured no faster than one device). One
+    SPMD program sharded over the devices does run them together, but then every
+    iteration of every batched while loop waits for both devices (the loop
+    condition is an all-reduce): 0.65 against 0.45 ms per configuration this way
+    (simplest walker, 2048 configurations, two cores; see benchmarks/README.md).
+    """
+    n_rows = next(iter(block.values())).shape[0]
+    devices = jax.devices()
+    n_dev = len(devices)
+    if n_dev == 1 or n_rows % n_dev or n_rows // n_dev < min_rows_per_device:
+        return jax.tree_util.tree_map(np.asarray, program(block))
+
+    def run(i):
+        # Every n_dev-th row: neighbouring grid points cost about the same, so
+        # the devices get equal work (contiguous halves of a slope sweep differ
+        # by ~15% in steps and Newton iterations).
+        part = {k: v[i::n_dev] for k, v in block.items()}
+        if i:  # device 0 is the default one: uncommitted input shares its compilation
+            part = jax.device_put(part, devices[i])
+        return jax.tree_util.tree_map(np.asarray, program(part))
+
+    outs = list(_device_threads(n_dev).map(run, range(n_dev)))
+    # Interleave back: row j came from device j % n_dev.
+    return jax.tree_util.tree_map(lambda *xs: np.stack(xs, axis=1).reshape((n_rows,) + xs[0].shape[1:]), *outs)
 
 
 @functools.lru_cache(maxsize=None)
@@ -94,7 +163,13 @@ def _step_down_program(model: Walker, solver: SolverOptions, step_down: StepDown
     return jax.jit(jax.vmap(one))
 
 
-def _run_chunks(program, params_rows: dict[str, np.ndarray], chunk: int, progress: Callable[[int], None] | None) -> Gait:
+def _run_chunks(
+    program,
+    params_rows: dict[str, np.ndarray],
+    chunk: int,
+    progress: Callable[[int], None] | None,
+    min_rows_per_device: int = MIN_ROWS_PER_DEVICE,
+) -> Gait:
     """Apply ``program`` to ``params_rows`` (leading axis = rows) chunk by chunk."""
     n_rows = next(iter(params_rows.values())).shape[0]
     n_dev = jax.device_count()
@@ -108,12 +183,47 @@ def _run_chunks(program, params_rows: dict[str, np.ndarray], chunk: int, progres
         pad = chunk - (stop - start)
         if pad:  # pad with copies of the last row so every chunk has one shape (one compile)
             block = {k: np.concatenate([v, np.repeat(v[-1:], pad, axis=0)]) for k, v in block.items()}
-        out = program(_shard_leading(block, n_dev))
-        out = jax.tree_util.tree_map(lambda x: np.asarray(x)[: stop - start], out)
+        out = _run_on_devices(program, block, min_rows_per_device)
+        out = jax.tree_util.tree_map(lambda x: x[: stop - start], out)
         pieces.append(out)
         if progress is not None:
             progress(stop - start)
     return jax.tree_util.tree_map(lambda *xs: np.concatenate(xs), *pieces)
+
+
+def chunk_shape(shape: tuple[int, ...], chunk_size: int, along: int | None = None) -> tuple[int, ...]:
+    """Shape of the blocks a grid of ``shape`` is cut into: at most ``chunk_size``
+    points each, filled from the last axis (so a block is contiguous in C order
+    when it can be); with continuation along axis ``along``, every block holds
+    whole lines along it (``chunk_size // shape[along]`` of them, at least one),
+    so each line's warm starts run as in one uninterrupted pass."""
+    chunks = [1] * len(shape)
+    budget = max(1, chunk_size)
+    if along is not None:
+        chunks[along] = shape[along]
+        budget = max(1, chunk_size // shape[along])
+    for k in reversed(range(len(shape))):
+        if k == along:
+            continue
+        chunks[k] = min(shape[k], budget)
+        budget = budget // shape[k] if chunks[k] == shape[k] else 1
+    return tuple(chunks)
+
+
+def chunk_count(shape: tuple[int, ...], chunks: tuple[int, ...]) -> tuple[int, ...]:
+    """Chunks along each axis (the last ones may be partial)."""
+    return tuple(-(-n // c) for n, c in zip(shape, chunks))
+
+
+def chunk_region(shape: tuple[int, ...], chunks: tuple[int, ...], index: int) -> tuple[slice, ...]:
+    """The grid indices of chunk ``index`` (chunks numbered in C order of the chunk grid)."""
+    where = np.unravel_index(index, chunk_count(shape, chunks))
+    return tuple(slice(int(i) * c, min((int(i) + 1) * c, n)) for i, c, n in zip(where, chunks, shape))
+
+
+def sub_grid(grid: Mapping[str, np.ndarray], region: tuple[slice, ...]) -> dict[str, np.ndarray]:
+    """The axes of the block ``region`` of ``grid``: itself a grid (their product)."""
+    return {name: np.asarray(values)[r] for (name, values), r in zip(grid.items(), region)}
 
 
 def analyse_grid(
@@ -125,6 +235,45 @@ def analyse_grid(
     progress: Callable[[int], None] | None = None,
 ) -> dict[str, np.ndarray]:
     """Fixed point, Jacobian eigenvalues and step metrics over a parameter grid.
+
+    The grid is cut into blocks of :func:`chunk_shape` (``options.chunk_size``
+    points, whole continuation lines) and each block is one call of
+    :func:`analyse_chunk`; ``jaxwalk sweep`` makes the same calls and streams
+    each block to disk instead of holding the grid (``jaxwalk.sweep.store``).
+    Arguments and results as :func:`analyse_chunk`, for the whole grid.
+    """
+    shape = tuple(len(np.atleast_1d(grid[a])) for a in grid)
+    along = None if continuation_axis is None else list(grid).index(continuation_axis)
+    chunks = chunk_shape(shape, options.chunk_size, along)
+    out: dict[str, np.ndarray] = {}
+    for index in range(int(np.prod(chunk_count(shape, chunks)))):
+        region = chunk_region(shape, chunks, index)
+        part = analyse_chunk(model, fixed, sub_grid(grid, region), continuation_axis, options)
+        for key, value in part.items():
+            if key not in out:
+                out[key] = np.empty(shape + value.shape[len(shape) :], value.dtype)
+            out[key][region] = value
+        if progress is not None:
+            progress(int(np.prod([r.stop - r.start for r in region])))
+    return out
+
+
+def analyse_chunk(
+    model: Walker,
+    fixed: Mapping[str, float],
+    grid: Mapping[str, np.ndarray],
+    continuation_axis: str | None = None,
+    options: AnalysisOptions = AnalysisOptions(),
+    progress: Callable[[int], None] | None = None,
+) -> dict[str, np.ndarray]:
+    """Fixed point, Jacobian eigenvalues and step metrics over a grid held in memory at once.
+
+    Called on a block of a larger grid (:func:`sub_grid`), it gives bit for bit
+    the numbers the larger grid has there, as long as the block holds whole
+    continuation lines: every configuration (or line) is computed on its own,
+    whatever its batch neighbours, padding or device (checked: chunk sizes 16
+    to 256, one or two devices, the simplest walker's slope sweep). A block
+    holding a line of the continuation axis in full starts it from the same seed.
 
     Args:
         model: the walker.
@@ -164,7 +313,9 @@ def analyse_grid(
         rows = {n: v.reshape(-1, len(values)) for n, v in moved.items()}
         program = _continuation_program(model, options.solver, options.newton, tuple(order), tuple(restart))
         line_progress = None if progress is None else (lambda n: progress(n * len(values)))
-        gaits = _run_chunks(program, rows, max(1, options.chunk_size // len(values)), line_progress)
+        gaits = _run_chunks(
+            program, rows, max(1, options.chunk_size // len(values)), line_progress, MIN_LINES_PER_DEVICE
+        )
 
         def unflatten(x):
             x = x.reshape(moved_shape + x.shape[2:])

@@ -1,4 +1,4 @@
-"""The sweep runner: calling the analysis, its contract, atomic writes, quick-look figures."""
+"""The sweep runner: calling the analysis, its contract, atomic writes, its figures."""
 
 from __future__ import annotations
 
@@ -301,9 +301,12 @@ def test_existing_dataset_needs_overwrite(tmp_path, fake_analysis):
      'name = "grid1d"\nmodel = "simplest"\n[grid]\ngamma = { start = 0.002, stop = 0.019, num = 18 }\n'],
     ids=["2d", "3d", "1d"],
 )
-def test_quicklook_figure(tmp_path, fake_analysis, text):
+def test_sweep_writes_its_figures(tmp_path, fake_analysis, text):
     config = loads_config(text)
     path = run_sweep(config, tmp_path, progress=False, analyse=fake_analysis(fail_above=0.0155 if config.model == "simplest" else 15.0))
-    png = path.with_suffix(".png")
-    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([path.name, png.name])
+    figures = sorted(p.name for p in tmp_path.iterdir() if p != path)
+    kinds = ["lines", "heatmap"] if len(config.dims) > 1 else ["lines"]
+    assert {f"{config.name}_lambda_max_{k}.png" for k in kinds} <= set(figures)
+    for name in figures:  # jaxwalk.plot's names, nothing else beside the dataset
+        assert name.startswith(f"{config.name}_") and name.endswith(tuple(f"_{k}.png" for k in kinds)), name
+        assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

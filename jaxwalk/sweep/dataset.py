@@ -135,12 +135,12 @@ def build_dataset(
         ),
         "eigenvalues_real": (
             dims + ("eigen",),
-            eig.real.astype(np.float64),
+            eig.real.astype(np.float64, copy=False),  # no copy: a sweep's template passes zero-stride views
             {"long_name": "real part of the eigenvalues of the step-to-step Jacobian", "units": "1"},
         ),
         "eigenvalues_imag": (
             dims + ("eigen",),
-            eig.imag.astype(np.float64),
+            eig.imag.astype(np.float64, copy=False),
             {"long_name": "imaginary part of the eigenvalues of the step-to-step Jacobian", "units": "1"},
         ),
         "fixed_point": (

@@ -18,9 +18,13 @@ taking the number of grid points just finished. For grid shape ``S`` it returns
 h_max``) also ``h_max`` (float, ``S``; NaN where no gait), ``step_down_status``
 (int, ``S``; the first failed drop's status, ``OK`` if none failed up to the
 limit, the gait's status where there is no gait) and ``h_failed`` (float, ``S``;
-the first failed drop's height, NaN if none); other keys are ignored. The
-analysis owns batching, chunking and devices; :func:`check_results` holds it to
-this contract.
+the first failed drop's height, NaN if none); other keys are ignored.
+
+The runner calls it once per block of the grid (``grid`` is then the block's
+sub-grid, ``jaxwalk.grid.sub_grid``; blocks hold whole continuation lines), in
+this process or as a Dask task (:mod:`jaxwalk.sweep.chunks`), and writes each
+block as it finishes (:mod:`jaxwalk.sweep.store`); within a block the analysis
+owns batching and devices. :func:`check_results` holds each block to this contract.
 """
 
 from __future__ import annotations
@@ -73,21 +77,36 @@ def run_sweep(
     plot: bool = True,
     command: str | None = None,
     max_points: int = DEFAULT_MAX_POINTS,
+    chunk_size: int | None = None,
+    dask: str | None = None,
 ) -> Path:
     """Run the sweep ``config`` and write ``out_dir/<name>.zarr``; return that path.
+
+    The grid is computed block by block (``chunk_size`` points, whole
+    continuation lines), each block written to ``out_dir/.<name>.zarr.partial``
+    as soon as it is done; the finished store is renamed into place. A run
+    that was killed or failed is continued by the same call (same config,
+    options and ``chunk_size``): see :mod:`jaxwalk.sweep.store`.
 
     Args:
         config: a :class:`SweepConfig` or the path of a TOML config.
         out_dir: output directory (created if needed).
         progress: show a progress bar (on stderr).
-        analyse: the analysis function (default :func:`jaxwalk.grid.analyse_grid`).
-        overwrite: replace an existing dataset of the same name.
-        plot: also write a quick-look figure ``out_dir/<name>.png``.
+        analyse: the analysis function (default :func:`jaxwalk.grid.analyse_grid`),
+            called once per block with the block's sub-grid.
+        overwrite: replace an existing dataset of the same name (and discard
+            an unfinished run of a different sweep instead of refusing).
+        plot: also write its figures, ``out_dir/<name>_<variable>_<kind>.png`` (:mod:`jaxwalk.plot`).
         command: command line recorded in the dataset (default: ``sys.argv``).
         max_points: grid size limit when ``config`` is a path.
+        chunk_size: points per block (default ``AnalysisOptions.chunk_size``).
+        dask: compute the blocks on a Dask cluster: a scheduler address, or
+            ``"local"`` for a LocalCluster on this machine (:mod:`jaxwalk.sweep.chunks`).
 
     Raises:
-        ConfigError: bad config or output directory, before anything is computed or written.
+        ConfigError: bad config or output directory, an unfinished run of a
+            different sweep there, or too little disk space, before anything is
+            computed or written.
     """
     from tqdm.auto import tqdm
 
@@ -103,23 +122,34 @@ def run_sweep(
     if command is None:
         command = " ".join(shlex.quote(a) for a in sys.argv)
 
-    with tqdm(total=config.n_points, unit="pt", desc=config.name, disable=not progress) as bar:
-        results = analyse(model, dict(config.fixed), config.grid, config.continuation, options, progress=bar.update)
-    results = check_results(
-        results, config.shape, len(model.section_names), stability=config.stability, step_down=config.h_max is not None
+    if chunk_size is not None:
+        options = dataclasses.replace(options, chunk_size=chunk_size)
+
+    from jaxwalk.sweep.chunks import chunk_results
+    from jaxwalk.sweep.store import ChunkStore
+
+    step_down = config.h_max is not None
+    keys = {**RESULT_KEYS, **({k: False for k in STEP_DOWN_KEYS} if step_down else {})}
+    store = ChunkStore.plan(  # checks a partial run and the disk space; writes nothing
+        config, model, target, chunk_size=options.chunk_size, options=_as_attribute(options), result_keys=keys,
+        command=command, overwrite=overwrite,
     )
-
-    from jaxwalk.sweep.dataset import build_dataset, write_zarr
-
-    ds = build_dataset(config, model, results, command=command, options=_as_attribute(options))
-    write_zarr(ds, target, overwrite=overwrite)
+    n_v = len(model.section_names)
+    with chunk_results(analyse, config, options, store, keys, dask=dask) as finished:  # connects first
+        bar = tqdm(total=config.n_points, initial=store.points_done, unit="pt", desc=config.name, disable=not progress)
+        with bar:
+            for index, results in finished:  # each block checked and on disk as soon as it is done
+                shape = tuple(r.stop - r.start for r in store.region(index))
+                store.write(index, check_results(results, shape, n_v, stability=config.stability, step_down=step_down))
+                bar.update(store.points_in(index))
+    store.finish()
     if plot:
         try:
-            from jaxwalk.sweep.quicklook import save_quicklook
+            from jaxwalk.plot import plot_dataset
 
-            save_quicklook(ds, target.with_suffix(".png"))
+            plot_dataset(target, target.parent)  # read back: the figures show what was written
         except Exception as err:  # a figure is a convenience; the dataset is written
-            warnings.warn(f"quick-look figure not written: {err}", stacklevel=2)
+            warnings.warn(f"figures not written: {' '.join(str(err).split())}", stacklevel=2)
     return target
 
 
