@@ -103,3 +103,83 @@ def test_simplest_optimum_confirmed_by_a_fine_grid():
         assert abs(path.best_params[s, 0] - best) <= spacing
         assert abs(path.final_params[s, 0] - best) <= 2 * spacing
         assert lam_best[s] <= grid["lambda_max"].min() + 1e-3
+
+
+class _FakeSensitivity:
+    """Stands in for the compiled sensitivity program (no compile): ``lambda_max``
+    and ``speed`` are simple functions of the optimised parameters, with
+    ``status`` FELL where ``fails(p)``."""
+
+    def __init__(self, names, lam, d_lam, speed, d_speed, fails):
+        self.names, self.lam, self.d_lam, self.speed, self.d_speed, self.fails = names, lam, d_lam, speed, d_speed, fails
+
+    def __call__(self, params, v0):
+        from types import SimpleNamespace
+
+        from jaxwalk.status import Status
+
+        p = np.stack([np.asarray(params[n]) for n in self.names], axis=-1)
+        bad = self.fails(p)
+        nan = lambda x: np.where(bad.reshape(bad.shape + (1,) * (np.ndim(x) - 1)), np.nan, x)
+        n = p.shape[0]
+        metrics = SimpleNamespace(
+            v=nan(np.asarray(v0)), lambda_max=nan(self.lam(p)), speed=nan(self.speed(p)),
+            step_length=nan(np.ones(n)), period=nan(np.ones(n)), cost_of_transport=nan(np.zeros(n)),
+        )
+        zeros = np.zeros((n, len(self.names)))
+        return SimpleNamespace(
+            metrics=metrics, d_lambda_max=nan(self.d_lam(p)), d_speed=nan(self.d_speed(p)),
+            d_step_length=zeros, d_period=zeros, d_cost_of_transport=zeros,
+            status=np.where(bad, Status.FELL, Status.OK).astype(np.int8),
+        )
+
+
+def _fake(monkeypatch, fake):
+    import jaxwalk.optimize.engine as engine
+
+    monkeypatch.setattr(engine, "sensitivity_program", lambda *args: fake)
+
+
+def test_a_start_that_loses_its_gait_ends_with_a_status(monkeypatch):
+    """lambda_max = (gamma - 0.01)^2 falls towards gamma = 0.01, but there is no gait
+    below 0.0105: steps into it are undone and halved, then the start ends FELL
+    near the edge; a start with no gait at all ends at once."""
+    from jaxwalk.models import get_model
+    from jaxwalk.optimize.engine import Problem, optimise
+    from jaxwalk.status import Status
+
+    fake = _FakeSensitivity(
+        ("gamma",), lambda p: (p[:, 0] - 0.01) ** 2, lambda p: 2 * (p - 0.01),
+        lambda p: p[:, 0], lambda p: np.ones_like(p), lambda p: p[:, 0] < 0.0105,
+    )
+    _fake(monkeypatch, fake)
+    problem = Problem(names=("gamma",), lower=(0.004,), upper=(0.02,), iterations=60, learning_rate=0.05, max_retries=3)
+    path = optimise(get_model("simplest"), problem, {}, np.array([[0.018], [0.005]]))
+    assert list(path.final_status) == [Status.FELL, Status.FELL]
+    assert path.ended_at[1] == 0 and not path.accepted[:, 1].any()
+    assert 0 < path.ended_at[0] < 60
+    assert 0.0105 <= path.best_params[0, 0] < 0.0115  # went as far as the gait allowed
+    failed = path.status[: path.ended_at[0] + 1, 0] != 0
+    assert failed[-4:].all() and not path.accepted[path.ended_at[0], 0]  # max_retries + 1 failures in a row
+
+
+@pytest.mark.parametrize("optimizer", ["adam", "normalized"])
+def test_held_speed_by_augmented_lagrangian(monkeypatch, optimizer):
+    """minimise gamma^2 + b^2 holding speed = gamma + b at 1: the optimum is (0.5, 0.5)."""
+    from jaxwalk.models import get_model
+    from jaxwalk.optimize.engine import Problem, optimise
+
+    fake = _FakeSensitivity(
+        ("gamma", "b"), lambda p: (p**2).sum(-1), lambda p: 2 * p,
+        lambda p: p.sum(-1), lambda p: np.ones_like(p), lambda p: np.zeros(p.shape[0], bool),
+    )
+    _fake(monkeypatch, fake)
+    problem = Problem(
+        names=("gamma", "b"), lower=(0.0, 0.1), upper=(0.5, 1.0), hold={"speed": 1.0}, penalty=10.0,
+        iterations=300, learning_rate=0.05, optimizer=optimizer,
+    )
+    model = get_model("compass")
+    fixed = {k: v for k, v in model.default_params().items() if k not in problem.names}
+    path = optimise(model, problem, fixed, np.array([[0.1, 0.9], [0.45, 0.2]]))
+    np.testing.assert_allclose(path.final_params, 0.5, atol=5e-3)
+    np.testing.assert_allclose(path.multipliers[-1, :, 0], -1.0, atol=0.05)  # lambda* = -df/dc = -2 p |target|

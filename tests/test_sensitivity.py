@@ -16,6 +16,8 @@ for v*. Tolerances are about three times those.
 
 from __future__ import annotations
 
+import os
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -125,6 +127,11 @@ def test_failed_gait_gives_status_and_nan_derivatives(sens):
 
 
 @pytest.mark.slow
+@pytest.mark.skipif(
+    not os.environ.get("JAXWALK_FLATFOOT_GRADIENT"),
+    reason="tracing and compiling the flat-foot walker's second-order program takes ~25 min on two cores; "
+    "set JAXWALK_FLATFOOT_GRADIENT=1 to run",
+)
 def test_flatfoot_lambda_max_fixed_point_and_cost_of_transport():
     """The flat-foot walker at its defaults: d/dr of lambda_max, v* and the cost of
     transport against central differences of converged gaits (one device:

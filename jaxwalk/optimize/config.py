@@ -54,7 +54,7 @@ from jaxwalk.sweep.config import (
 )
 
 TOP_LEVEL_KEYS = ("name", "model", "params", "optimize", "starts", "heatmap", "analysis")
-OPTIMIZE_KEYS = ("objective", "bounds", "iterations", "learning_rate", "optimizer", "hold", "penalty", "max_retries")
+OPTIMIZE_KEYS = ("objective", "bounds", "iterations", "learning_rate", "optimizer", "hold", "penalty", "dual_every", "max_retries")
 #: Most starts and heatmap points accepted (each start is a gait search with derivatives per iteration).
 MAX_STARTS = 4096
 MAX_HEATMAP_POINTS = 100_000
@@ -107,6 +107,7 @@ class OptimizeConfig:
             "penalty": p.penalty,
             "max_retries": p.max_retries,
             "optimizer": p.optimizer,
+            "dual_every": p.dual_every,
         }
         if p.hold:
             opt["hold"] = dict(p.hold)
@@ -211,7 +212,9 @@ def _problem(table, specs, params, model_name, fail) -> Problem:
         if q == objective.lstrip("-"):
             raise fail(f"{where}: the objective '{q}' cannot also be held")
     settings = {}
-    for key, kind, default in (("iterations", int, 30), ("learning_rate", float, 0.02), ("penalty", float, 10.0), ("max_retries", int, 4)):
+    for key, kind, default in (
+        ("iterations", int, 30), ("learning_rate", float, 0.02), ("penalty", float, 10.0), ("dual_every", int, 10), ("max_retries", int, 4)
+    ):
         value = table.get(key, default)
         bad = (not isinstance(value, int) or isinstance(value, bool) or value < (0 if key == "max_retries" else 1)) if kind is int else (not _number(value) or value <= 0)
         if bad:

@@ -20,9 +20,10 @@ start (host side; the arithmetic is tiny).
   ``"adam"`` and ``"sgd"`` are there for smooth objectives.
 * **Held quantities** (``hold = {speed = 0.09}``): an augmented Lagrangian.
   With ``c = (q - target) / |target|`` (relative), each start minimises
-  ``L = f + lambda c + rho/2 c^2`` and after every accepted step its multiplier
-  moves ``lambda += rho c`` (method of multipliers, one primal step per dual
-  step). A penalty alone would stop short of the target by ``O(1/rho)``;
+  ``L = f + lambda c + rho/2 c^2`` and every ``dual_every`` (10) steps its
+  multiplier moves ``lambda += rho c`` (method of multipliers; a dual step
+  after every primal step overshot and sent test problems to the bounds, the
+  primal needs a few steps to follow). A penalty alone would stop short of the target by ``O(1/rho)``;
   projection onto ``q = target`` would need a gait solve along the constraint.
 * **Losing the gait.** A step that lands where the search fails (a fold, a
   fall) is recorded with its status and undone: the start goes back to its
@@ -78,6 +79,7 @@ class Problem:
             decays by a cosine schedule to a twentieth of it.
         max_retries: failed steps in a row (each halving the step) before a start ends.
         optimizer: ``"normalized"``, ``"adam"`` or ``"sgd"`` (module docstring).
+        dual_every: steps between multiplier updates of the augmented Lagrangian.
     """
 
     names: tuple[str, ...]
@@ -91,6 +93,7 @@ class Problem:
     learning_rate: float = 0.02
     max_retries: int = 4
     optimizer: str = "normalized"
+    dual_every: int = 10
 
 
 #: Optimisers a config may name.
@@ -239,7 +242,8 @@ def optimise(
         for j, h in enumerate(held):
             q = np.asarray(getattr(sens.metrics, h))
             c = (q - target[j]) / abs(target[j])
-            multipliers[:, j] = np.where(active & ok, multipliers[:, j] + problem.penalty * c, multipliers[:, j])
+            dual_step = (k + 1) % problem.dual_every == 0
+            multipliers[:, j] = np.where(active & ok & dual_step, multipliers[:, j] + problem.penalty * c, multipliers[:, j])
         scale = np.where(retry, 0.5 * scale, scale)
         if k == rows - 1 or not active.any():
             break

@@ -21,7 +21,7 @@ def _start_coordinate(ds: xr.Dataset, name: str) -> np.ndarray:
 
 def draw_paths(ds: xr.Dataset, target) -> None:
     """Draw every start's path (accepted iterates joined, failed ones as crosses,
-    the end as a dot) over ``heatmap_lambda_max`` (stable < 1; NaN where no gait)."""
+    the best iterate as a dot) over ``heatmap_lambda_max`` (stable < 1; NaN where no gait)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -54,8 +54,9 @@ def draw_paths(ds: xr.Dataset, target) -> None:
         line, = ax.plot(xs[ok, s], ys[ok, s], ".-", ms=3, lw=1)
         failed = ~ok & np.isfinite(xs[:, s]) & np.isfinite(ys[:, s])
         ax.plot(xs[failed, s], ys[failed, s], "x", color=line.get_color(), ms=5)
-        if ok.any():
-            ax.plot(xs[ok, s][-1:], ys[ok, s][-1:], "o", color=line.get_color(), mec="k", ms=6)
+        best = int(ds["best_iteration"].values[s]) if "best_iteration" in ds else -1
+        if best >= 0:
+            ax.plot(xs[best, s], ys[best, s], "o", color=line.get_color(), mec="k", ms=6)
     ax.set_title(ds.attrs.get("title", "optimisation"), fontsize=9)
     fig.savefig(target, dpi=120)
     plt.close(fig)
