@@ -52,12 +52,21 @@ def continue_along(
     restart: np.ndarray,
     solver: SolverOptions,
     newton: NewtonOptions,
+    v_start: Array | None = None,
+    have_start: Array | bool = False,
 ) -> Gait:
     """Gaits along one line of the continuation axis (one config per entry).
 
     Args:
         params_line: dict of ``(n,)`` parameter arrays along the axis.
-        order, restart: from :func:`visiting_order`.
+        order, restart: from :func:`visiting_order`; NumPy or traced arrays (a
+            jitted caller passes them as inputs, so one program serves every
+            seed position of a line length).
+        v_start: ``(n_v,)`` start of the seed point (the first visited) in
+            place of the model's initial guess, used where ``have_start``
+            (e.g. a converged gait of a seed line, :mod:`jaxwalk.seedline`). It
+            plays the guess's part throughout: where the seed point fails, the
+            walk down restarts from it too.
 
     Returns:
         A :class:`Gait` whose leaves have leading dimension ``n``, in grid order.
@@ -82,10 +91,12 @@ def continue_along(
         have_prev = ok | start_ok
         return (v_prev, have_prev, v_seed, have_seed), gait
 
-    zeros = jnp.zeros(n_v, some.dtype)
-    carry0 = (zeros, jnp.asarray(False), zeros, jnp.asarray(False))
-    _, gaits = jax.lax.scan(visit, carry0, (jnp.asarray(order), jnp.asarray(restart)))
-    inverse = np.argsort(order)
+    order, restart = jnp.asarray(order), jnp.asarray(restart)
+    have = jnp.asarray(have_start, bool)
+    v0 = jnp.zeros(n_v, some.dtype) if v_start is None else jnp.where(have, jnp.asarray(v_start, some.dtype), 0.0)
+    carry0 = (v0, have, v0, have)
+    _, gaits = jax.lax.scan(visit, carry0, (order, restart))
+    inverse = jnp.argsort(order)
     return jax.tree_util.tree_map(lambda x: x[inverse], gaits)
 
 

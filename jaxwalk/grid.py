@@ -148,10 +148,67 @@ def _run_on_devices(program, block: dict[str, np.ndarray], min_rows_per_device: 
 
 
 @functools.lru_cache(maxsize=None)
-def _continuation_program(model: Walker, solver: SolverOptions, newton: NewtonOptions, order: tuple, restart: tuple):
-    order_a, restart_a = np.array(order, np.int32), np.array(restart, bool)
-    line = lambda p: continue_along(model, p, order_a, restart_a, solver, newton)
+def _continuation_program(model: Walker, solver: SolverOptions, newton: NewtonOptions):
+    """One jitted program for every continuation line of a model and settings:
+    the visiting order, restart flags and start point are inputs (rows of
+    :func:`line_rows`), so lines of one length share one compilation whatever
+    their seed, and a seed line (:mod:`jaxwalk.seedline`) reuses it."""
+
+    def line(p):
+        p = dict(p)
+        order, restart = p.pop("__order__"), p.pop("__restart__")
+        v0, have = p.pop("__v0__"), p.pop("__v0_ok__")
+        return continue_along(model, p, order, restart, solver, newton, v0, have)
+
     return jax.jit(jax.vmap(line))
+
+
+def line_rows(model: Walker, lines: Mapping[str, np.ndarray], seed: int, starts: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    """The inputs of :func:`_continuation_program` for ``n_lines`` lines of length ``n``.
+
+    Args:
+        lines: every parameter as an ``(n_lines, n)`` array.
+        seed: index along the lines where each walk starts (:func:`seed_index`).
+        starts: ``(n_lines, n_v)`` start points of the seed points, NaN rows
+            where a line has none (it starts from the model's initial guess);
+            ``None``: none has one.
+    """
+    n_lines, n = next(iter(lines.values())).shape
+    order, restart = visiting_order(n, seed)
+    n_v = len(model.section_names)
+    if starts is None:
+        starts = np.full((n_lines, n_v), np.nan)
+    starts = np.asarray(starts, np.float64).reshape(n_lines, n_v)
+    have = np.isfinite(starts).all(axis=-1)
+    return {
+        **lines,
+        "__order__": np.broadcast_to(order, (n_lines, n)).copy(),
+        "__restart__": np.broadcast_to(restart, (n_lines, n)).copy(),
+        "__v0__": np.where(have[:, None], starts, 0.0),
+        "__v0_ok__": have,
+    }
+
+
+def run_lines(
+    model: Walker,
+    lines: Mapping[str, np.ndarray],
+    seed: int,
+    options: AnalysisOptions,
+    starts: np.ndarray | None = None,
+    progress: Callable[[int], None] | None = None,
+    lines_per_call: int | None = None,
+) -> Gait:
+    """Continuation along ``n_lines`` lines (``(n_lines, n)`` parameter arrays),
+    chunked and split over the devices; a :class:`Gait` of ``(n_lines, n)`` leaves.
+    ``lines_per_call`` pads each call to that many lines (default: as many as
+    ``options.chunk_size`` allows, fewer for fewer lines: :func:`_run_chunks`)."""
+    n = next(iter(lines.values())).shape[1]
+    rows = line_rows(model, lines, seed, starts)
+    program = _continuation_program(model, options.solver, options.newton)
+    line_progress = None if progress is None else (lambda k: progress(k * n))
+    return _run_chunks(
+        program, rows, max(1, options.chunk_size // n), line_progress, MIN_LINES_PER_DEVICE, lines_per_call
+    )
 
 
 @functools.lru_cache(maxsize=None)
@@ -169,12 +226,14 @@ def _run_chunks(
     chunk: int,
     progress: Callable[[int], None] | None,
     min_rows_per_device: int = MIN_ROWS_PER_DEVICE,
+    rows: int | None = None,
 ) -> Gait:
-    """Apply ``program`` to ``params_rows`` (leading axis = rows) chunk by chunk."""
+    """Apply ``program`` to ``params_rows`` (leading axis = rows) chunk by chunk
+    (``rows`` per call if given, to share another call's compiled shape)."""
     n_rows = next(iter(params_rows.values())).shape[0]
     n_dev = jax.device_count()
     # Few distinct shapes, few compilations: small inputs pad to a power of two.
-    rows = min(chunk, 1 << max(0, (n_rows - 1).bit_length()))
+    rows = rows or min(chunk, 1 << max(0, (n_rows - 1).bit_length()))
     chunk = max(n_dev, -(-rows // n_dev) * n_dev)
     pieces = []
     for start in range(0, n_rows, chunk):
@@ -233,6 +292,9 @@ def analyse_grid(
     continuation_axis: str | None = None,
     options: AnalysisOptions = AnalysisOptions(),
     progress: Callable[[int], None] | None = None,
+    *,
+    seed_axis: str | None = None,
+    starts: np.ndarray | None = None,
 ) -> dict[str, np.ndarray]:
     """Fixed point, Jacobian eigenvalues and step metrics over a parameter grid.
 
@@ -241,14 +303,30 @@ def analyse_grid(
     :func:`analyse_chunk`; ``jaxwalk sweep`` makes the same calls and streams
     each block to disk instead of holding the grid (``jaxwalk.sweep.store``).
     Arguments and results as :func:`analyse_chunk`, for the whole grid.
+
+    With ``seed_axis`` (a grid axis other than the continuation axis), seed
+    lines along it run first (:func:`jaxwalk.seedline.seed_lines`) and every
+    continuation line starts from their gait at its point; the result then
+    also holds ``seed_line_status`` and ``seed_line_fixed_point`` (the grid's
+    shape without the continuation axis). ``starts`` gives those start points
+    directly instead (as :func:`analyse_chunk`).
     """
     shape = tuple(len(np.atleast_1d(grid[a])) for a in grid)
     along = None if continuation_axis is None else list(grid).index(continuation_axis)
     chunks = chunk_shape(shape, options.chunk_size, along)
     out: dict[str, np.ndarray] = {}
+    if (seed_axis is not None or starts is not None) and continuation_axis is None:
+        raise ValueError("seed lines and start points need a continuation axis")
+    if seed_axis is not None:
+        from jaxwalk.seedline import seed_lines
+
+        seeds = seed_lines(model, fixed, grid, continuation_axis, seed_axis, options)
+        starts = seeds.starts
+        out["seed_line_status"], out["seed_line_fixed_point"] = seeds.status, seeds.v
     for index in range(int(np.prod(chunk_count(shape, chunks)))):
         region = chunk_region(shape, chunks, index)
-        part = analyse_chunk(model, fixed, sub_grid(grid, region), continuation_axis, options)
+        block_starts = None if starts is None else starts[region[:along] + region[along + 1 :]]
+        part = analyse_chunk(model, fixed, sub_grid(grid, region), continuation_axis, options, starts=block_starts)
         for key, value in part.items():
             if key not in out:
                 out[key] = np.empty(shape + value.shape[len(shape) :], value.dtype)
@@ -265,6 +343,8 @@ def analyse_chunk(
     continuation_axis: str | None = None,
     options: AnalysisOptions = AnalysisOptions(),
     progress: Callable[[int], None] | None = None,
+    *,
+    starts: np.ndarray | None = None,
 ) -> dict[str, np.ndarray]:
     """Fixed point, Jacobian eigenvalues and step metrics over a grid held in memory at once.
 
@@ -283,6 +363,11 @@ def analyse_chunk(
             for independent searches from the model's initial guess.
         options: solver, Newton and chunking settings.
         progress: called with the number of configurations finished after each chunk.
+        starts: with continuation only: start points of the lines' seed points,
+            shaped like the grid without the continuation axis, plus ``(n_v,)``;
+            NaN where a line has none (it starts from ``model.initial_guess``).
+            ``jaxwalk.seedline`` makes them; a block's are the same slice of
+            the whole grid's whoever computes it, so its lines run alike.
 
     Returns:
         Arrays with the grid's shape ``S`` in front: ``status`` (int8),
@@ -307,15 +392,12 @@ def analyse_chunk(
         k = axes.index(continuation_axis)
         values = np.asarray(grid[continuation_axis], np.float64)
         seed = seed_index(values, model.param_specs[continuation_axis].default)
-        order, restart = visiting_order(len(values), seed)
         moved = {n: np.moveaxis(v, k, -1) for n, v in params.items()}
         moved_shape = next(iter(moved.values())).shape
         rows = {n: v.reshape(-1, len(values)) for n, v in moved.items()}
-        program = _continuation_program(model, options.solver, options.newton, tuple(order), tuple(restart))
-        line_progress = None if progress is None else (lambda n: progress(n * len(values)))
-        gaits = _run_chunks(
-            program, rows, max(1, options.chunk_size // len(values)), line_progress, MIN_LINES_PER_DEVICE
-        )
+        if starts is not None:
+            starts = np.asarray(starts, np.float64).reshape(-1, len(model.section_names))
+        gaits = run_lines(model, rows, seed, options, starts, progress)
 
         def unflatten(x):
             x = x.reshape(moved_shape + x.shape[2:])

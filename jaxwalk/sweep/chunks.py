@@ -36,22 +36,27 @@ _DEVICE_FLAG = re.compile(r"--xla_force_host_platform_device_count=\d+")
 
 
 def compute_chunk(analyse: Callable, model_name: str, fixed: Mapping, grid: Mapping, continuation: str | None,
-                  options, region: tuple[slice, ...], keys: Iterable[str]) -> dict[str, np.ndarray]:
+                  options, region: tuple[slice, ...], keys: Iterable[str],
+                  starts: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """The analysis of one block (a Dask task; also what the local loop runs).
 
     Returns the ``keys`` of ``analyse``'s output for the grid block ``region``
     (arrays of the block's shape, NumPy), ready for ``runner.check_results``.
+    ``starts``: the block's lines' start points (``[analysis] seed_axis``),
+    passed on as ``analyse(..., starts=starts)``.
     """
     from jaxwalk.grid import sub_grid
     from jaxwalk.models import get_model
 
-    out = analyse(get_model(model_name), dict(fixed), sub_grid(grid, region), continuation, options)
+    extra = {} if starts is None else {"starts": starts}
+    out = analyse(get_model(model_name), dict(fixed), sub_grid(grid, region), continuation, options, **extra)
     return {k: np.asarray(out[k]) for k in keys if k in out}
 
 
 @contextlib.contextmanager
 def chunk_results(analyse: Callable, config, options, store, keys: Iterable[str],
-                  dask: str | None = None) -> Iterator[Iterator[tuple[int, dict[str, np.ndarray]]]]:
+                  dask: str | None = None, starts: np.ndarray | None = None,
+                  ) -> Iterator[Iterator[tuple[int, dict[str, np.ndarray]]]]:
     """``(index, results)`` of every block ``store`` still needs, as they finish.
 
     Args:
@@ -62,6 +67,10 @@ def chunk_results(analyse: Callable, config, options, store, keys: Iterable[str]
         keys: the result keys to return.
         dask: ``None`` (this process, blocks in order), ``"local"`` (a
             LocalCluster on this machine) or a scheduler address (``tcp://host:8786``).
+        starts: with ``[analysis] seed_axis``, the start points of every
+            continuation line (``jaxwalk.seedline.SeedLines.starts``, the grid's
+            shape without the continuation axis, plus ``(n_v,)``), computed once
+            for the whole grid; each block gets its own lines' slice.
 
     Raises:
         ConfigError: ``dask`` is given but ``distributed`` is not installed or the
@@ -69,14 +78,22 @@ def chunk_results(analyse: Callable, config, options, store, keys: Iterable[str]
     """
     keys = tuple(keys)
     args = (analyse, config.model, dict(config.fixed), config.grid, config.continuation, options)
+    along = None if config.continuation is None else config.dims.index(config.continuation)
+
+    def block_starts(i: int) -> np.ndarray | None:
+        if starts is None:
+            return None
+        region = store.region(i)
+        return np.ascontiguousarray(starts[region[:along] + region[along + 1 :]])
+
     if dask is None:
-        yield ((i, compute_chunk(*args, store.region(i), keys)) for i in store.pending())
+        yield ((i, compute_chunk(*args, store.region(i), keys, block_starts(i))) for i in store.pending())
         return
     with dask_client(dask) as client:
-        yield _on_dask(client, args, store, keys)
+        yield _on_dask(client, args, store, keys, block_starts)
 
 
-def _on_dask(client, args, store, keys) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
+def _on_dask(client, args, store, keys, block_starts) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
     from distributed import as_completed
 
     window = max(2, TASKS_PER_THREAD * sum(client.nthreads().values()))
@@ -86,7 +103,8 @@ def _on_dask(client, args, store, keys) -> Iterator[tuple[int, dict[str, np.ndar
     futures = as_completed()
 
     def submit(i: int) -> None:
-        future = client.submit(compute_chunk, *args, store.region(i), keys, key=f"jaxwalk-chunk-{tag}-{i}", pure=False)
+        future = client.submit(compute_chunk, *args, store.region(i), keys, block_starts(i),
+                               key=f"jaxwalk-chunk-{tag}-{i}", pure=False)
         index_of[future.key] = i
         futures.add(future)
 

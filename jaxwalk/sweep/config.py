@@ -42,7 +42,7 @@ TOP_LEVEL_KEYS = ("name", "model", *SECTIONS)
 AXIS_KEYS = ("start", "stop", "num", "values")
 #: Solver settings passed through to the analysis when set (absent: its defaults).
 SOLVER_KEYS = ("rtol", "atol", "newton_tol", "max_newton_iter")
-ANALYSIS_KEYS = ("stability", "continuation", "h_max", *SOLVER_KEYS)
+ANALYSIS_KEYS = ("stability", "continuation", "seed_axis", "h_max", *SOLVER_KEYS)
 #: Keys of ``[analysis] h_max`` and the :class:`jaxwalk.stepdown.StepDownOptions` fields they set.
 H_MAX_KEYS = {"step": "dh", "count": "count", "steps": "n_steps"}
 
@@ -82,6 +82,9 @@ class SweepConfig:
         stability: whether to compute the Jacobian, its eigenvalues and ``lambda_max``.
         continuation: the axis along which Newton warm-starts from its converged
             neighbour, or ``None`` for independent points.
+        seed_axis: another axis along which seed lines give every continuation
+            line its start (:mod:`jaxwalk.seedline`), or ``None`` (each line
+            starts from the model's initial guess).
         solver: the solver settings of ``[analysis]`` that were given.
         h_max: the global-stability test (the largest survived step-down), resolved
             with its defaults: ``{"step": float, "count": int, "steps": int}``
@@ -98,6 +101,7 @@ class SweepConfig:
     axes: tuple[GridAxis, ...]
     stability: bool = True
     continuation: str | None = None
+    seed_axis: str | None = None
     solver: dict[str, float | int] = dataclasses.field(default_factory=dict)
     h_max: dict[str, float | int] | None = None
     source: str = "<config>"
@@ -124,8 +128,9 @@ class SweepConfig:
         """The resolved config, itself a valid config (TOML/JSON-ready).
 
         ``params`` holds every fixed value, defaults included; ``continuation`` is
-        the axis used, or ``False``; ``h_max`` the step-down settings with their
-        defaults, or ``False``.
+        the axis used, or ``False``; ``seed_axis`` appears only when set (so
+        configs without it keep their fingerprint); ``h_max`` the step-down
+        settings with their defaults, or ``False``.
         """
         return {
             "name": self.name,
@@ -135,6 +140,7 @@ class SweepConfig:
             "analysis": {
                 "stability": self.stability,
                 "continuation": self.continuation if self.continuation is not None else False,
+                **({"seed_axis": self.seed_axis} if self.seed_axis is not None else {}),
                 "h_max": dict(self.h_max) if self.h_max is not None else False,
                 **self.solver,
             },
@@ -219,7 +225,7 @@ def parse_config(
     axis_specs = {
         axis: _axis_spec(axis, spec, specs, params, model_name, fail) for axis, spec in axes_raw.items()
     }
-    stability, continuation, solver, h_max = _analysis(data.get("analysis", {}), list(axis_specs), fail)
+    stability, continuation, seed_axis, solver, h_max = _analysis(data.get("analysis", {}), list(axis_specs), fail)
     _check_size(axis_specs, len(model.section_names), max_points, fail, h_max=h_max is not None)
     axes = tuple(_axis(axis, spec) for axis, spec in axis_specs.items())
 
@@ -233,6 +239,7 @@ def parse_config(
         axes=axes,
         stability=stability,
         continuation=continuation,
+        seed_axis=seed_axis,
         solver=solver,
         h_max=h_max,
         source=source,
@@ -352,7 +359,7 @@ def _check_size(axis_specs, n_v, max_points, fail, *, h_max: bool = False) -> No
         )
 
 
-def _analysis(table, names, fail) -> tuple[bool, str | None, dict[str, float | int], dict[str, float | int] | None]:
+def _analysis(table, names, fail) -> tuple[bool, str | None, str | None, dict[str, float | int], dict[str, float | int] | None]:
     for key in table:
         if key not in ANALYSIS_KEYS:
             raise fail(f"[analysis]: unknown key '{key}'{_did_you_mean(key, ANALYSIS_KEYS)} (allowed: {', '.join(ANALYSIS_KEYS)})")
@@ -369,6 +376,7 @@ def _analysis(table, names, fail) -> tuple[bool, str | None, dict[str, float | i
         raise fail(f"[analysis]: continuation must be a grid axis name or false, got {continuation!r}")
     elif continuation not in names:
         raise fail(f"[analysis]: continuation = '{continuation}' is not a grid axis (axes: {', '.join(names)})")
+    seed_axis = _seed_axis(table.get("seed_axis", False), continuation, names, fail)
 
     solver: dict[str, float | int] = {}
     for key in SOLVER_KEYS:
@@ -383,7 +391,23 @@ def _analysis(table, names, fail) -> tuple[bool, str | None, dict[str, float | i
                 raise fail(f"[analysis]: {key} must be a positive number, got {value!r}")
             value = float(value)
         solver[key] = value
-    return stability, continuation, solver, _h_max(table.get("h_max", False), fail)
+    return stability, continuation, seed_axis, solver, _h_max(table.get("h_max", False), fail)
+
+
+def _seed_axis(value, continuation, names, fail) -> str | None:
+    """``[analysis] seed_axis``: ``false`` / absent (off) or a grid axis other than
+    the continuation axis (there must be one)."""
+    if value is False:
+        return None
+    if not isinstance(value, str):
+        raise fail(f"[analysis]: seed_axis must be a grid axis name or false, got {value!r}")
+    if value not in names:
+        raise fail(f"[analysis]: seed_axis = '{value}' is not a grid axis{_did_you_mean(value, names)} (axes: {', '.join(names)})")
+    if continuation is None:
+        raise fail(f"[analysis]: seed_axis = '{value}' needs continuation along another grid axis (continuation is off)")
+    if value == continuation:
+        raise fail(f"[analysis]: seed_axis = '{value}' is the continuation axis; name another grid axis (axes: {', '.join(names)})")
+    return value
 
 
 def _h_max(value, fail) -> dict[str, float | int] | None:

@@ -193,6 +193,7 @@ def build_dataset(
         "parameter_units": json.dumps({p.name: p.units for p in model.parameters}),
         "units_note": units_note(model),
         "continuation_axis": config.continuation or "none",
+        "seed_axis": config.seed_axis or "none",
         "stability": int(config.stability),
         "config": config.to_json(),
         "analysis_options": json.dumps(options or {}, default=str),

@@ -20,6 +20,12 @@ h_max``) also ``h_max`` (float, ``S``; NaN where no gait), ``step_down_status``
 limit, the gait's status where there is no gait) and ``h_failed`` (float, ``S``;
 the first failed drop's height, NaN if none); other keys are ignored.
 
+With ``[analysis] seed_axis`` the runner first runs the seed lines
+(:func:`jaxwalk.seedline.seed_lines`, the engine's own, whatever ``analyse``
+is) and calls ``analyse(..., starts=...)`` with each block's start points
+(:func:`jaxwalk.grid.analyse_chunk`); the seed lines are recorded in the
+dataset's attributes (``seed_line_*``).
+
 The runner calls it once per block of the grid (``grid`` is then the block's
 sub-grid, ``jaxwalk.grid.sub_grid``; blocks hold whole continuation lines), in
 this process or as a Dask task (:mod:`jaxwalk.sweep.chunks`), and writes each
@@ -135,13 +141,23 @@ def run_sweep(
         command=command, overwrite=overwrite,
     )
     n_v = len(model.section_names)
-    with chunk_results(analyse, config, options, store, keys, dask=dask) as finished:  # connects first
+    seeds = None
+    if config.seed_axis is not None:  # once for the whole grid, before its blocks (jaxwalk.seedline)
+        from jaxwalk.seedline import seed_lines
+
+        seeds = seed_lines(model, config.fixed, config.grid, config.continuation, config.seed_axis, options)
+    starts = None if seeds is None else seeds.starts
+    with chunk_results(analyse, config, options, store, keys, dask=dask, starts=starts) as finished:  # connects first
         bar = tqdm(total=config.n_points, initial=store.points_done, unit="pt", desc=config.name, disable=not progress)
         with bar:
             for index, results in finished:  # each block checked and on disk as soon as it is done
                 shape = tuple(r.stop - r.start for r in store.region(index))
                 store.write(index, check_results(results, shape, n_v, stability=config.stability, step_down=step_down))
                 bar.update(store.points_in(index))
+    if seeds is not None:
+        from jaxwalk.seedline import dataset_attributes
+
+        store.set_attributes(dataset_attributes(seeds))
     store.finish()
     if plot:
         try:

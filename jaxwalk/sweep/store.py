@@ -333,6 +333,12 @@ class ChunkStore:
         history = group.attrs.get("history", "")
         group.attrs["history"] = f"{history}\n{now}: continued ({len(self.done)} of {self.n_chunks} chunks were done): {self.command}"
 
+    def set_attributes(self, attrs: Mapping[str, str]) -> None:
+        """Set global attributes of the dataset (e.g. the seed lines' results:
+        computed again, the same, by a resumed run)."""
+        if attrs:
+            self._open().attrs.update(dict(attrs))
+
     def finish(self) -> Path:
         """Consolidate the metadata and move the finished dataset to ``target``."""
         import zarr

@@ -1,0 +1,147 @@
+"""Seed lines (``[analysis] seed_axis``): continuation lines started from a
+continuation along another axis. Compass walker only (fast to compile)."""
+
+from __future__ import annotations
+
+import json
+
+import jax
+import numpy as np
+import pytest
+import xarray as xr
+
+from jaxwalk import cli, grid as G
+from jaxwalk.gait import find_gait
+from jaxwalk.models import get_model
+from jaxwalk.sweep import loads_config, run_sweep
+from jaxwalk.sweep.config import ConfigError
+
+MODEL = get_model("compass")
+GAMMA0 = MODEL.param_specs["gamma"].default
+# Lines along m_h (seed: the default 10 kg), one per slope. At gamma = 0.13 the
+# model's guess (made for the default slope) misses the gait at m_h = 10, so the
+# whole line is lost; the seed line walks there along gamma from the default.
+GRID = {"gamma": np.array([GAMMA0, 0.09, 0.13]), "m_h": np.array([8.0, 10.0, 12.0])}
+OPTIONS = G.AnalysisOptions()
+
+CONFIG = f"""
+name = "seeded"
+model = "compass"
+[grid]
+gamma = {{ values = [{GAMMA0!r}, 0.09, 0.13] }}
+m_h = {{ values = [8.0, 10.0, 12.0] }}
+[analysis]
+continuation = "m_h"
+seed_axis = "gamma"
+"""
+
+
+def _program():
+    return G._continuation_program(MODEL, OPTIONS.solver, OPTIONS.newton)
+
+
+@pytest.fixture(scope="module")
+def runs():
+    plain = G.analyse_grid(MODEL, {}, GRID, "m_h", OPTIONS)
+    compiled = _program()._cache_size()
+    seeded = G.analyse_grid(MODEL, {}, GRID, "m_h", OPTIONS, seed_axis="gamma")
+    return plain, seeded, compiled, _program()._cache_size()
+
+
+def test_seeding_finds_the_lines_lost_without_it(runs):
+    plain, seeded, _, _ = runs
+    assert (plain["status"][2] != 0).all()  # lost at its seed, so along the whole line
+    assert (plain["status"][:2] == 0).all()
+    assert (seeded["status"] == 0).all()
+    assert (seeded["seed_line_status"] == 0).all() and seeded["seed_line_fixed_point"].shape == (3, 3)
+    # Where both converge, the same gait.
+    np.testing.assert_allclose(seeded["fixed_point"][:2], plain["fixed_point"][:2], atol=1e-8)
+    # The seed line runs at m_h's seed value: there the lines' seed points are its points.
+    np.testing.assert_allclose(seeded["fixed_point"][:, 1], seeded["seed_line_fixed_point"], atol=1e-8)
+
+
+def test_seed_line_reuses_the_compiled_program(runs):
+    """Visiting order, restarts and start points are inputs: a seed line as long
+    as the lines (and padded to their batch) compiles nothing new."""
+    _, _, before, after = runs
+    assert after == before
+
+
+def test_seeded_line_equals_single_searches_from_its_starts(runs):
+    """The gamma = 0.13 line against find_gait run on its own from the starts
+    continuation gives: the seed point from the seed line's gait, its
+    neighbours from the seed point's."""
+    _, seeded, _, _ = runs
+    v_seed = seeded["seed_line_fixed_point"][2]
+    v_mid = seeded["fixed_point"][2, 1]
+    params = {s.name: np.full(3, s.default) for s in MODEL.parameters}
+    params["gamma"] = np.full(3, 0.13)
+    params["m_h"] = GRID["m_h"].copy()
+    starts = np.stack([v_mid, v_seed, v_mid])
+    gaits = jax.jit(jax.vmap(lambda p, v: find_gait(MODEL, p, v, OPTIONS.solver, OPTIONS.newton)))(params, starts)
+    assert (np.asarray(gaits.status) == 0).all()
+    np.testing.assert_allclose(np.asarray(gaits.v), seeded["fixed_point"][2], atol=1e-9)
+    np.testing.assert_allclose(np.asarray(gaits.lambda_max), seeded["lambda_max"][2], atol=1e-7)
+
+
+def _arrays(path):
+    ds = xr.open_dataset(path, engine="zarr")
+    return ds.load()
+
+
+def test_chunked_and_resumed_sweep_equals_the_grid(runs, tmp_path):
+    """Blocks of two lines and one; the first run dies after its first block, the
+    same call continues it: every variable bit for bit the in-memory grid's."""
+    _, seeded, _, _ = runs
+    config = loads_config(CONFIG)
+    calls = []
+
+    def dies_after_one_block(*args, **kwargs):
+        calls.append(kwargs.get("starts"))
+        if len(calls) == 2:
+            raise RuntimeError("killed")
+        return G.analyse_grid(*args, **kwargs)
+
+    with pytest.raises(RuntimeError, match="killed"):
+        run_sweep(config, tmp_path, progress=False, plot=False, chunk_size=6, analyse=dies_after_one_block)
+    assert not (tmp_path / "seeded.zarr").exists()
+    path = run_sweep(config, tmp_path, progress=False, plot=False, chunk_size=6)
+    ds = _arrays(path)
+    assert calls[0].shape == (2, 3)  # a block's lines' starts: (lines, n_v)
+    assert "continued" in ds.attrs["history"]
+    np.testing.assert_array_equal(ds["status"].values, seeded["status"])
+    for key in ("fixed_point", "lambda_max", "period", "newton_iterations"):
+        np.testing.assert_array_equal(ds[key].values, seeded[key])
+    assert ds.attrs["seed_axis"] == "gamma" and ds.attrs["continuation_axis"] == "m_h"
+    assert ds.attrs["seed_line_dims"] == "gamma"
+    assert ds.attrs["seed_line_status"] == "[0, 0, 0]"
+    np.testing.assert_array_equal(np.array(json.loads(ds.attrs["seed_line_fixed_point"]), float), seeded["seed_line_fixed_point"])
+
+
+def test_without_seed_axis_nothing_changes():
+    config = loads_config(CONFIG.replace('seed_axis = "gamma"\n', ""))
+    assert config.seed_axis is None and "seed_axis" not in config.to_dict()["analysis"]
+    assert loads_config(CONFIG).to_dict()["analysis"]["seed_axis"] == "gamma"
+
+
+@pytest.mark.parametrize(
+    "analysis, fragment",
+    [
+        ('continuation = "m_h"\nseed_axis = "gama"', "seed_axis = 'gama' is not a grid axis (did you mean 'gamma'?) (axes: gamma, m_h)"),
+        ('continuation = "m_h"\nseed_axis = "m_h"', "seed_axis = 'm_h' is the continuation axis"),
+        ('continuation = false\nseed_axis = "gamma"', "seed_axis = 'gamma' needs continuation along another grid axis"),
+        ('continuation = "m_h"\nseed_axis = 1', "seed_axis must be a grid axis name or false, got 1"),
+    ],
+    ids=["unknown-axis", "continuation-axis", "no-continuation", "not-a-name"],
+)
+def test_bad_seed_axis(tmp_path, monkeypatch, capsys, analysis, fragment):
+    text = CONFIG.split("[analysis]")[0] + f"[analysis]\n{analysis}\n"
+    with pytest.raises(ConfigError) as info:
+        loads_config(text, source="t.toml")
+    assert "\n" not in str(info.value) and fragment in str(info.value)
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "sweep.toml").write_text(text)
+    assert cli.main(["sweep", "sweep.toml", "--out", "res"]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and captured.err.count("\n") == 1 and fragment in captured.err
+    assert not (tmp_path / "res").exists()
