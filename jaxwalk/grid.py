@@ -163,7 +163,9 @@ def _continuation_program(model: Walker, solver: SolverOptions, newton: NewtonOp
     return jax.jit(jax.vmap(line))
 
 
-def line_rows(model: Walker, lines: Mapping[str, np.ndarray], seed: int, starts: np.ndarray | None = None) -> dict[str, np.ndarray]:
+def line_rows(
+    model: Walker, lines: Mapping[str, np.ndarray], seed: int, starts: np.ndarray | None = None, length: int | None = None
+) -> dict[str, np.ndarray]:
     """The inputs of :func:`_continuation_program` for ``n_lines`` lines of length ``n``.
 
     Args:
@@ -172,9 +174,18 @@ def line_rows(model: Walker, lines: Mapping[str, np.ndarray], seed: int, starts:
         starts: ``(n_lines, n_v)`` start points of the seed points, NaN rows
             where a line has none (it starts from the model's initial guess);
             ``None``: none has one.
+        length: pad every line to this length (to run another line length's
+            program): copies of the last point visited, visited after every
+            real point, so the real points' walk is unchanged.
     """
     n_lines, n = next(iter(lines.values())).shape
     order, restart = visiting_order(n, seed)
+    if length is not None and length > n:
+        last = int(order[-1])
+        lines = {k: np.concatenate([v, np.repeat(v[:, last : last + 1], length - n, axis=1)], axis=1) for k, v in lines.items()}
+        order = np.concatenate([order, np.arange(n, length, dtype=order.dtype)])
+        restart = np.concatenate([restart, np.zeros(length - n, bool)])
+        n = length
     n_v = len(model.section_names)
     if starts is None:
         starts = np.full((n_lines, n_v), np.nan)
@@ -197,18 +208,22 @@ def run_lines(
     starts: np.ndarray | None = None,
     progress: Callable[[int], None] | None = None,
     lines_per_call: int | None = None,
+    length: int | None = None,
 ) -> Gait:
     """Continuation along ``n_lines`` lines (``(n_lines, n)`` parameter arrays),
     chunked and split over the devices; a :class:`Gait` of ``(n_lines, n)`` leaves.
     ``lines_per_call`` pads each call to that many lines (default: as many as
-    ``options.chunk_size`` allows, fewer for fewer lines: :func:`_run_chunks`)."""
+    ``options.chunk_size`` allows, fewer for fewer lines: :func:`_run_chunks`);
+    ``length`` pads each line (:func:`line_rows`; the result keeps ``n``)."""
     n = next(iter(lines.values())).shape[1]
-    rows = line_rows(model, lines, seed, starts)
+    rows = line_rows(model, lines, seed, starts, length)
+    n_run = rows["__order__"].shape[1]
     program = _continuation_program(model, options.solver, options.newton)
     line_progress = None if progress is None else (lambda k: progress(k * n))
-    return _run_chunks(
-        program, rows, max(1, options.chunk_size // n), line_progress, MIN_LINES_PER_DEVICE, lines_per_call
+    gaits = _run_chunks(
+        program, rows, max(1, options.chunk_size // n_run), line_progress, MIN_LINES_PER_DEVICE, lines_per_call
     )
+    return jax.tree_util.tree_map(lambda x: x[:, :n], gaits)
 
 
 @functools.lru_cache(maxsize=None)

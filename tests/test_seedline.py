@@ -13,6 +13,7 @@ import xarray as xr
 from jaxwalk import cli, grid as G
 from jaxwalk.gait import find_gait
 from jaxwalk.models import get_model
+from jaxwalk.seedline import seed_lines
 from jaxwalk.sweep import loads_config, run_sweep
 from jaxwalk.sweep.config import ConfigError
 
@@ -65,6 +66,17 @@ def test_seed_line_reuses_the_compiled_program(runs):
     as the lines (and padded to their batch) compiles nothing new."""
     _, _, before, after = runs
     assert after == before
+
+
+def test_shorter_seed_line_is_padded_into_the_same_program(runs):
+    """Two slopes, three hip masses: the seed line (length 2) is padded to the
+    lines' length and runs the compiled program; its points are the long one's."""
+    _, seeded, _, compiled = runs
+    short = {"gamma": GRID["gamma"][:2], "m_h": GRID["m_h"]}
+    seeds = seed_lines(MODEL, {}, short, "m_h", "gamma", OPTIONS)
+    assert _program()._cache_size() == compiled
+    assert (seeds.status == 0).all() and seeds.v.shape == (2, 3)
+    np.testing.assert_allclose(seeds.v, seeded["seed_line_fixed_point"][:2], atol=1e-9)
 
 
 def test_seeded_line_equals_single_searches_from_its_starts(runs):
