@@ -135,7 +135,11 @@ def test_failed_gait_gives_status_and_nan_derivatives(sens):
 def test_flatfoot_lambda_max_fixed_point_and_cost_of_transport():
     """The flat-foot walker at its defaults: d/dr of lambda_max, v* and the cost of
     transport against central differences of converged gaits (one device:
-    batched LAPACK from two device threads has deadlocked for this walker)."""
+    batched LAPACK from two device threads has deadlocked for this walker).
+
+    Measured (h = 1e-4, r = 0.39, 0.40, 0.41, 0.42): lambda_max 6.93950 against
+    6.94006 at r = 0.4 (at most 8e-5 relative over the four), v* to 3e-6
+    relative, cost of transport to 4e-4 relative (6e-6 at r = 0.4)."""
     model = get_model("flatfoot")
     d = model.default_params()
     h = 1e-4
@@ -149,6 +153,6 @@ def test_flatfoot_lambda_max_fixed_point_and_cost_of_transport():
     assert (sens.status == 0).all()
     m = sens.metrics
     fd = lambda x: (x[2] - x[1]) / (2 * h)
-    np.testing.assert_allclose(sens.d_lambda_max[0, 0], fd(m.lambda_max), rtol=2e-3)
+    np.testing.assert_allclose(sens.d_lambda_max[0, 0], fd(m.lambda_max), rtol=5e-4)
     np.testing.assert_allclose(sens.d_v[0, :, 0], fd(m.v), rtol=1e-4, atol=1e-5)
     np.testing.assert_allclose(sens.d_cost_of_transport[0, 0], fd(m.cost_of_transport), rtol=1e-3)
