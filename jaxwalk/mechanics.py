@@ -38,7 +38,8 @@ from jax.custom_batching import custom_vmap
 Array = jax.Array
 
 #: Largest linear system (KKT matrix order) solved by the unrolled elimination
-#: below; larger ones go to LAPACK (``jnp.linalg.solve``).
+#: below; larger ones by the same elimination in a ``fori_loop``. Neither calls
+#: LAPACK: see the note on the deadlock above ``_entries``.
 UNROLLED_SOLVE_MAX = 8
 
 
@@ -312,11 +313,18 @@ def solve(a: Array, b: Array) -> Array:
 
     Orders up to :data:`UNROLLED_SOLVE_MAX` use the unrolled elimination (forward
     and reverse differentiable; reverse mode solves with ``a^T`` by LAPACK);
-    larger ones ``jnp.linalg.solve``.
+    larger ones (the kneed and flat-foot walkers' KKT systems, 12 and 15, whose
+    masks change with the phase) the looped one. Not ``jnp.linalg.solve``: with
+    two CPU devices each running its program from its own thread, LAPACK's
+    batched kernels wait on the shared intra-op pool and both devices hung for
+    good (flat-foot gait search, 256 configurations, second call; all threads
+    asleep). The looped elimination costs the flat-foot gait search 3.5x (72
+    against 20 ms per configuration on one device, batch 32) and compiles
+    faster; both give the same gaits (lambda_max to 1e-8).
     """
     if a.shape[0] <= UNROLLED_SOLVE_MAX:
         return _unrolled_solve(a, b)
-    return jnp.linalg.solve(a, b)
+    return _looped_solve(a, b)
 
 
 def _looped_solve(a: Array, b: Array) -> Array:
@@ -413,6 +421,6 @@ def impact(mass: Array, qd_minus: Array, sigma: Array, mask: Array) -> tuple[Arr
     kkt = _kkt_matrix(mass, sigma, mask)
     rhs = jnp.concatenate([mass @ qd_minus, jnp.zeros(n_c, qd_minus.dtype)])
     # Once per event, not per vector-field evaluation: the looped elimination
-    # (no LAPACK, small program) where the unrolled one would be used.
-    sol = _looped_solve(kkt, rhs) if kkt.shape[0] <= UNROLLED_SOLVE_MAX else jnp.linalg.solve(kkt, rhs)
+    # (no LAPACK, small program) at every order.
+    sol = _looped_solve(kkt, rhs)
     return sol[:n_q], sol[n_q:]

@@ -19,6 +19,7 @@ from jaxwalk.models.flatfoot import phases as ph
 from jaxwalk.simulate import AFTER_EVENT, BEFORE_EVENT, record_walk
 from jaxwalk.status import Status
 from jaxwalk.step import step_map
+from jaxwalk.stepdown import StepDownOptions, h_max, step_down_trial
 
 MODEL = get_model("flatfoot")
 
@@ -251,3 +252,33 @@ def test_no_gait_on_level_ground_without_hip_torque(params, step_fn):
                 assert after < energy - 1e-6
                 energy = after
             assert int(res.status) != Status.OK
+
+
+# ----------------------------------------------------------------- step-down
+def test_h_max_is_the_first_failed_drop_of_single_trials(params, fixed_point):
+    # The batched search (what sweeps run) against the definition, one drop at a
+    # time: h_max = k dh where drops dh .. k dh all survive and (k + 1) dh fails,
+    # with the failing trial's status. A drop of 0 keeps walking on the cycle.
+    options = StepDownOptions(dh=0.002, count=10, n_steps=6)
+    v = jnp.asarray(fixed_point[0])
+    batched = jax.jit(jax.vmap(lambda v_: h_max(MODEL, params, v_, options)))(v[None])
+    trial = jax.jit(lambda h: step_down_trial(MODEL, params, v, h, options.n_steps))
+
+    level = trial(0.0)
+    assert bool(level.survived) and int(level.steps) == options.n_steps + 1
+    outcomes = []
+    for k in range(1, options.count + 1):
+        t = trial(k * options.dh)
+        outcomes.append((bool(t.survived), int(t.status)))
+        if not t.survived:
+            break
+    survived = [s for s, _ in outcomes]
+    k_max = survived.index(False) if False in survived else options.count
+    assert float(batched.h_max[0]) == pytest.approx(k_max * options.dh, abs=1e-15)
+    if k_max < options.count:
+        status = outcomes[k_max][1]
+        assert status != Status.OK
+        assert int(batched.first_failure[0]) == status
+        assert float(batched.failed_at[0]) == pytest.approx((k_max + 1) * options.dh, abs=1e-15)
+    else:
+        assert int(batched.first_failure[0]) == Status.OK and np.isnan(float(batched.failed_at[0]))

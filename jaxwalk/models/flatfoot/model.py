@@ -18,6 +18,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
+from jaxwalk import mechanics
 from jaxwalk.models.flatfoot import events, forces
 from jaxwalk.models.flatfoot import geometry as geo
 from jaxwalk.models.flatfoot import phases as ph
@@ -98,7 +99,7 @@ class FlatFootWalker(Walker):
         sigma = jax.jacfwd(ph.constraints)(q, params, ctx)[jnp.array(_SECTION_ROWS)]
         lhs = jnp.concatenate([sigma, jnp.eye(6, dtype=v.dtype)[geo.THIGH_1][None]], axis=0)
         rhs = jnp.zeros(6, v.dtype).at[-1].set(psi_dot)
-        qd = jnp.linalg.solve(lhs, rhs)
+        qd = mechanics.solve(lhs, rhs)  # no LAPACK inside sweeps (mechanics.solve)
         y = jnp.concatenate([q, qd])
         t0 = jnp.zeros((), v.dtype)
         # A toe that would pull leaves at once, a knee that would pull flexes at
