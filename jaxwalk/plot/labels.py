@@ -23,9 +23,9 @@ MEANINGS = {
     "lambda_max": "local stability: largest eigenvalue modulus (stable below 1)",
     "h_max": "global stability: largest survived step-down",
     "speed": "mean walking speed",
-    "cost_of_transport": "cost of transport",
-    "step_length": "step length",
-    "period": "step period",
+    "cost_of_transport": "actuator work per weight and distance",
+    "step_length": "distance the stance foot advances per step",
+    "period": "duration of one step",
 }
 #: The legend text of the stability boundary.
 STABILITY_LIMIT = r"$\lambda_{\max} = 1$ (stability limit)"
