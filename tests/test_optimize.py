@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from jaxwalk.optimize.config import parse_optimize_config
+from tests.conftest import ROOT
 from jaxwalk.sweep.config import ConfigError, parse_toml
 
 GOOD = """
@@ -183,3 +184,12 @@ def test_held_speed_by_augmented_lagrangian(monkeypatch, optimizer):
     path = optimise(model, problem, fixed, np.array([[0.1, 0.9], [0.45, 0.2]]))
     np.testing.assert_allclose(path.final_params, 0.5, atol=5e-3)
     np.testing.assert_allclose(path.multipliers[-1, :, 0], -1.0, atol=0.05)  # lambda* = -df/dc = -2 p |target|
+
+
+@pytest.mark.parametrize("path", sorted((ROOT / "sweeps" / "optimize").glob("*.toml")), ids=lambda p: p.name)
+def test_bundled_optimize_configs_are_valid(path):
+    from jaxwalk.optimize.config import load_optimize_config
+
+    cfg = load_optimize_config(path)
+    assert cfg.name == path.stem
+    assert cfg.heatmap and cfg.starts.shape[0] >= 1
