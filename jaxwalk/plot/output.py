@@ -36,6 +36,11 @@ def save_figure(fig, path: str | os.PathLike, fmt: str = "png", *, dpi: int = DP
         elif fmt == "svg":
             metadata = {"Creator": "jaxwalk", "Date": None}
         fig.savefig(tmp, format=fmt, dpi=dpi, metadata=metadata)
+        # mkstemp makes the file private (0600); the figure gets what a plain
+        # open() would have given it under the user's umask.
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)
         os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):
