@@ -11,6 +11,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from jaxwalk import mechanics
 from jaxwalk.models import get_model
 
 MODEL = get_model("compass")
@@ -101,3 +102,27 @@ def test_heel_strike_conserves_momenta_and_loses_energy(seed):
     # An inelastic impact loses kinetic energy.
     T = lambda v: 0.5 * jnp.sum(masses * jnp.sum(v**2, axis=-1))
     assert float(T(v_plus)) < float(T(v_minus))
+
+
+@pytest.mark.parametrize("n", [3, 8, 12, 15])
+def test_solve_matches_numpy_and_its_derivative_matches_differences(n):
+    # mechanics.solve replaces LAPACK inside the integration loops: unrolled up
+    # to order 8, looped above (the kneed and flat-foot KKT systems, 12 and 15).
+    # A zero on the diagonal forces pivoting; a KKT-like block structure too.
+    rng = np.random.default_rng(n)
+    a = rng.normal(size=(n, n))
+    a[0, 0] = 0.0
+    b = rng.normal(size=n)
+    x = np.asarray(jax.jit(mechanics.solve)(jnp.asarray(a), jnp.asarray(b)))
+    np.testing.assert_allclose(x, np.linalg.solve(a, b), rtol=1e-10, atol=1e-12)
+    # Forward mode against central differences along one direction of (a, b).
+    da, db = rng.normal(size=(n, n)), rng.normal(size=n)
+    _, dx = jax.jvp(mechanics.solve, (jnp.asarray(a), jnp.asarray(b)), (jnp.asarray(da), jnp.asarray(db)))
+    h = 1e-6
+    fd = (np.linalg.solve(a + h * da, b + h * db) - np.linalg.solve(a - h * da, b - h * db)) / (2 * h)
+    np.testing.assert_allclose(np.asarray(dx), fd, rtol=1e-6, atol=1e-8)
+    # vmap equals a loop over single solves.
+    batch_a = np.stack([a, a + 0.1 * da])
+    batch = np.asarray(jax.vmap(mechanics.solve)(jnp.asarray(batch_a), jnp.asarray(np.stack([b, b]))))
+    for i in range(2):
+        np.testing.assert_allclose(batch[i], np.linalg.solve(batch_a[i], b), rtol=1e-10, atol=1e-12)
