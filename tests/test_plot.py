@@ -231,6 +231,13 @@ def test_default_variables_are_those_with_values(kwargs, expected):
     assert choose_variables(synthetic(GRID_2D, **kwargs)) == expected
 
 
+def test_a_passive_walkers_zero_cost_of_transport_is_drawn_only_when_asked():
+    ds = synthetic(GRID_2D)
+    ds["cost_of_transport"] = ds["cost_of_transport"].where(np.isnan(ds["cost_of_transport"]), 0.0)
+    assert choose_variables(ds) == ["lambda_max", "speed"]
+    assert choose_variables(ds, ["cost_of_transport"]) == ["cost_of_transport"]
+
+
 def test_requested_variables_are_checked():
     ds = synthetic(GRID_2D, stability=False)
     assert choose_variables(ds, ["period", "speed", "period"]) == ["period", "speed"]

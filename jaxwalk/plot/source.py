@@ -96,11 +96,21 @@ def has_values(ds: xr.Dataset, name: str) -> bool:
     return bool(np.isfinite(values).any() or not (ds["status"].values == Status.OK).any())
 
 
+def identically_zero(ds: xr.Dataset, name: str) -> bool:
+    """Whether every finite value of ``name`` is exactly 0 (and there is one): a
+    passive walker's work and cost of transport, nothing worth a figure."""
+    values = ds[name].values
+    finite = values[np.isfinite(values)]
+    return bool(finite.size and not finite.any())
+
+
 def choose_variables(ds: xr.Dataset, requested: list[str] | tuple[str, ...] | None = None) -> list[str]:
     """The variables to draw: ``requested`` after checking, else the defaults the dataset has.
 
-    Defaults are :data:`DEFAULT_VARIABLES` present with values (:func:`has_values`);
-    ``lambda_max`` without stability, or ``h_max`` without ``[analysis] h_max``, is left out.
+    Defaults are :data:`DEFAULT_VARIABLES` present with values (:func:`has_values`)
+    that are not all zero (:func:`identically_zero`); ``lambda_max`` without
+    stability, ``h_max`` without ``[analysis] h_max``, or the cost of transport of
+    a passive walker is left out (asked for by name, it is drawn).
 
     Raises:
         PlotError: a requested name is not a plottable variable of ``ds``, or has no
@@ -108,7 +118,7 @@ def choose_variables(ds: xr.Dataset, requested: list[str] | tuple[str, ...] | No
     """
     known = plottable_variables(ds)
     if requested is None:
-        chosen = [v for v in DEFAULT_VARIABLES if v in known and has_values(ds, v)]
+        chosen = [v for v in DEFAULT_VARIABLES if v in known and has_values(ds, v) and not identically_zero(ds, v)]
         if not chosen:
             raise PlotError(f"dataset '{ds.attrs.get('name', '?')}' has none of {', '.join(DEFAULT_VARIABLES)} with values")
         return chosen
