@@ -72,12 +72,6 @@ def parameter_grid(model: Walker, fixed: Mapping[str, float], grid: Mapping[str,
     return out
 
 
-#: Configurations per device that advance together through Newton's method and
-#: the ODE solves of one chunk. A vmapped while loop runs until its slowest
-#: element is done; in sub-batches of neighbouring grid points the iteration and
-#: step counts vary less, and each sub-batch stops on its own.
-SUB_BATCH = 64
-
 #: A chunk of independent configurations is split over the CPU devices only when
 #: each gets at least this many (every device compiles the program once, so small
 #: grids run on one device). Continuation lines are heavier: two per device.
@@ -103,12 +97,17 @@ def _in_sub_batches(fn, params, sub_batch: int):
 
 
 @functools.lru_cache(maxsize=None)
-def _independent_program(model: Walker, solver: SolverOptions, newton: NewtonOptions, sub_batch: int = SUB_BATCH):
+def _independent_program(model: Walker, solver: SolverOptions, newton: NewtonOptions):
+    """Gait searches from the model's guess, ``model.lockstep_batch`` configurations
+    at a time: a vmapped while loop runs until its slowest element is done, so
+    each sub-batch of neighbouring grid points (similar iteration and step
+    counts) stops on its own."""
+
     def one(p):
         return find_gait(model, p, model.initial_guess(p), solver, newton)
 
     # Per configuration the same computation as continuation.gaits_independent.
-    return jax.jit(lambda p: _in_sub_batches(one, dict(p), sub_batch))
+    return jax.jit(lambda p: _in_sub_batches(one, dict(p), model.lockstep_batch))
 
 
 @functools.lru_cache(maxsize=1)
@@ -160,7 +159,11 @@ def _continuation_program(model: Walker, solver: SolverOptions, newton: NewtonOp
         v0, have = p.pop("__v0__"), p.pop("__v0_ok__")
         return continue_along(model, p, order, restart, solver, newton, v0, have)
 
-    return jax.jit(jax.vmap(line))
+    # Lines in sub-batches of model.lockstep_batch, as configurations in
+    # _independent_program: a line waits at every point for the slowest line of
+    # its sub-batch (the flat-foot walker's map ran 6x faster at 1-2 lines per
+    # sub-batch than at 8: benchmarks/README.md).
+    return jax.jit(lambda rows: _in_sub_batches(line, dict(rows), model.lockstep_batch))
 
 
 def line_rows(
@@ -232,7 +235,8 @@ def _step_down_program(model: Walker, solver: SolverOptions, step_down: StepDown
         v = p.pop("__v_star__")
         return h_max(model, p, v, step_down, solver)
 
-    return jax.jit(jax.vmap(one))
+    # Every drop of every step in lockstep across a sub-batch: model.lockstep_batch.
+    return jax.jit(lambda rows: _in_sub_batches(one, dict(rows), model.lockstep_batch))
 
 
 def _run_chunks(

@@ -59,6 +59,7 @@ class Walker:
         context: names of the entries of ``ctx``.
         section_names: names of the independent section coordinates ``v``.
         n_constraints: number of constraint rows (active or not).
+        lockstep_batch: configurations one device runs together in a grid analysis.
     """
 
     name: str = ""
@@ -72,6 +73,14 @@ class Walker:
     n_constraints: int = 0
     #: Units of lengths and times in outputs (period, step length, speed).
     units: dict = {"length": "1", "time": "1"}
+    #: Configurations (or continuation lines) one device advances together,
+    #: ``vmap``-ed, in a grid analysis (``jaxwalk.grid``). A vmapped while loop
+    #: runs until its slowest element is done, every element paying for every
+    #: iteration: large batches pay off where every configuration costs about
+    #: the same (the passive walkers), small ones where some cost many times the
+    #: others (failing steps that integrate long, Newton iterations, drops of
+    #: the step-down test: the flat-foot walker, see benchmarks/README.md).
+    lockstep_batch: int = 64
 
     # Python identity is the cache key of every jitted function that closes
     # over a model: one instance per model, shared through the registry.

@@ -56,6 +56,13 @@ class FlatFootWalker(Walker):
     context = ph.CONTEXT
     section_names = ("psi", "psi_dot")
     n_constraints = ph.N_CONSTRAINTS
+    # One configuration (or continuation line) at a time per device: where the
+    # swing scuffs, falls or stalls, a step, a Newton search or a drop costs
+    # many times a normal one, and in a vmapped batch everyone waits for it.
+    # Measured on the (l_f, r) map's longest-foot quarter (1024 points, 2
+    # devices, benchmarks/README.md): 690 s at 8 lines per batch, 110 s at 2,
+    # 53 s at 1; on uniform batches vmap gains at most 1.7x (bench_flatfoot.py).
+    lockstep_batch = 1
 
     # ------------------------------------------------------------ mechanics
     def points(self, q, params):
