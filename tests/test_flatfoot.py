@@ -1,7 +1,11 @@
 """The flat-foot walker against physics: conservation, contacts, impacts, the gait.
 
-Every program is compiled once per module (module-scoped fixtures): the step map,
-its forward-mode derivative along one direction, and the engine's recorder.
+Every program is compiled once per module (module-scoped fixtures): the step map
+with its forward-mode derivative along one direction (one program; the ground
+drop an input, so the step-down test walks with it too) and the engine's
+recorder; the batched step-down search is the one other flat-foot program here.
+Parameters passed to them keep the defaults' dtypes (a weak-typed ``0.0`` in
+place of a float64 array is another signature: one more compile of minutes).
 """
 
 from __future__ import annotations
@@ -19,7 +23,7 @@ from jaxwalk.models.flatfoot import phases as ph
 from jaxwalk.simulate import AFTER_EVENT, BEFORE_EVENT, record_walk
 from jaxwalk.status import Status
 from jaxwalk.step import step_map
-from jaxwalk.stepdown import StepDownOptions, h_max, step_down_trial
+from jaxwalk.stepdown import StepDownOptions, h_max
 
 MODEL = get_model("flatfoot")
 
@@ -55,14 +59,44 @@ def params():
 
 
 @pytest.fixture(scope="module")
-def step_fn():
-    return jax.jit(lambda v, p: step_map(MODEL, v, p))
+def step_program():
+    """``(v, dv, params, drop) -> (v_next, StepResult, dv_next)``: one step onto
+    ground ``drop`` lower and its forward derivative along ``dv``. Every test
+    here steps through this one program (a step map and a separate jvp would
+    compile twice; the jvp's primal is the step map)."""
+
+    def step(v, dv, p, drop):
+        (v1, res), (dv1, _) = jax.jvp(lambda v_: step_map(MODEL, v_, p, ground_drop=drop), (v,), (dv,))
+        return v1, res, dv1
+
+    return jax.jit(step)
+
+
+_LEVEL = jnp.zeros((), jnp.float64)
+_NO_TANGENT = jnp.zeros(2, jnp.float64)
 
 
 @pytest.fixture(scope="module")
-def tangent_fn():
-    # One direction at a time: a jvp compiles in about half the time of jacfwd.
-    return jax.jit(lambda v, dv, p: jax.jvp(lambda v_: step_map(MODEL, v_, p)[0], (v,), (dv,)))
+def dropped_step_fn(step_program):
+    """``(v, params, drop) -> (v_next, StepResult)``."""
+    return lambda v, p, drop: step_program(v, _NO_TANGENT, p, drop)[:2]
+
+
+@pytest.fixture(scope="module")
+def step_fn(step_program):
+    """``(v, params) -> (v_next, StepResult)`` on level ground."""
+    return lambda v, p: step_program(v, _NO_TANGENT, p, _LEVEL)[:2]
+
+
+@pytest.fixture(scope="module")
+def tangent_fn(step_program):
+    """``(v, dv, params) -> (v_next, dv_next)``: one column of the Jacobian at a time."""
+
+    def tangent(v, dv, p):
+        v1, _, dv1 = step_program(v, dv, p, _LEVEL)
+        return v1, dv1
+
+    return tangent
 
 
 @pytest.fixture(scope="module")
@@ -239,7 +273,7 @@ def test_section_round_trip_and_consistency(params, fixed_point):
 # ----------------------------------------------------------------- no free lunch
 def test_no_gait_on_level_ground_without_hip_torque(params, step_fn):
     """With P = 0 and gamma = 0 nothing puts energy in: every step loses some, so no gait."""
-    passive = dict(params, P=jnp.asarray(0.0))
+    passive = dict(params, P=jnp.zeros_like(params["P"]))
     for psi in (0.15, 0.25, 0.35):
         for psi_dot in (-0.2, -0.4, -0.6):
             v = jnp.array([psi, psi_dot])
@@ -255,24 +289,34 @@ def test_no_gait_on_level_ground_without_hip_torque(params, step_fn):
 
 
 # ----------------------------------------------------------------- step-down
-def test_h_max_is_the_first_failed_drop_of_single_trials(params, fixed_point):
-    # The batched search (what sweeps run) against the definition, one drop at a
-    # time: h_max = k dh where drops dh .. k dh all survive and (k + 1) dh fails,
-    # with the failing trial's status. A drop of 0 keeps walking on the cycle.
+def test_h_max_is_the_first_failed_drop_of_single_trials(params, fixed_point, dropped_step_fn):
+    # The batched search (what sweeps run: jaxwalk.stepdown.h_max, one while
+    # loop over drops around one over steps) against the definition, one drop
+    # at a time and one step at a time through the step map: from the gait, a
+    # step onto ground h lower, then n_steps steps on the new level. h_max = k dh
+    # where drops dh .. k dh all survive and (k + 1) dh fails, with the failing
+    # step's status. A drop of 0 keeps walking on the cycle.
     options = StepDownOptions(dh=0.002, count=10, n_steps=6)
-    v = jnp.asarray(fixed_point[0])
-    batched = jax.jit(jax.vmap(lambda v_: h_max(MODEL, params, v_, options)))(v[None])
-    trial = jax.jit(lambda h: step_down_trial(MODEL, params, v, h, options.n_steps))
+    v_star = jnp.asarray(fixed_point[0])
+    batched = jax.jit(jax.vmap(lambda v_: h_max(MODEL, params, v_, options)))(v_star[None])
 
-    level = trial(0.0)
-    assert bool(level.survived) and int(level.steps) == options.n_steps + 1
+    def trial(h):
+        """``(survived, status of the first failed step or OK, steps completed)``."""
+        v = v_star
+        for k in range(options.n_steps + 1):
+            drop = jnp.asarray(h if k == 0 else 0.0, jnp.float64)  # float64 like _LEVEL: one signature
+            v, res = dropped_step_fn(v, params, drop)
+            if int(res.status) != Status.OK:
+                return False, int(res.status), k
+        return True, int(Status.OK), options.n_steps + 1
+
+    assert trial(0.0) == (True, Status.OK, options.n_steps + 1)
     outcomes = []
     for k in range(1, options.count + 1):
-        t = trial(k * options.dh)
-        outcomes.append((bool(t.survived), int(t.status)))
-        if not t.survived:
+        outcomes.append(trial(k * options.dh))
+        if not outcomes[-1][0]:
             break
-    survived = [s for s, _ in outcomes]
+    survived = [s for s, _, _ in outcomes]
     k_max = survived.index(False) if False in survived else options.count
     assert float(batched.h_max[0]) == pytest.approx(k_max * options.dh, abs=1e-15)
     if k_max < options.count:
