@@ -27,18 +27,6 @@ def pytest_configure(config):
     )
 
 
-@pytest.hookimpl(tryfirst=True)  # before pytest-xdist reads the groups
-def pytest_collection_modifyitems(config, items):
-    """Each test module is one pytest-xdist group (``--dist loadgroup``, as
-    ``.ci/run`` runs the suite): its module-scoped fixtures hold compiled
-    programs of minutes, which must be built once, on one worker. Modules that
-    share compiled programs name one group in ``XDIST_GROUP``."""
-    for item in items:
-        module = item.module
-        group = getattr(module, "XDIST_GROUP", module.__name__.rsplit(".", 1)[-1])
-        item.add_marker(pytest.mark.xdist_group(group))
-
-
 @pytest.fixture
 def write_toml(tmp_path):
     """``write_toml(text, name="sweep.toml") -> Path`` in a fresh directory."""

@@ -10,9 +10,6 @@ from jaxwalk.optimize.config import parse_optimize_config
 from tests.conftest import ROOT
 from jaxwalk.sweep.config import ConfigError, parse_toml
 
-#: With tests/test_sensitivity.py on one pytest-xdist worker: both run its compiled sensitivity program.
-XDIST_GROUP = "simplest_sensitivity"
-
 GOOD = """
 name = "opt"
 model = "simplest"

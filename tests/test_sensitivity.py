@@ -32,8 +32,6 @@ from jaxwalk.status import Status
 from jaxwalk.step import SolverOptions
 
 SIMPLEST = get_model("simplest")
-#: With tests/test_optimize.py on one pytest-xdist worker (one compile of the sensitivity program).
-XDIST_GROUP = "simplest_sensitivity"
 #: Batch of the compiled sensitivity program (shared with test_optimize: one compile).
 GAMMAS = np.array([0.006, 0.009, 0.012, 0.05])  # the last one has no gait
 H = 2e-4  # slope step (rad): smaller steps hit the noise floor of lambda_max (FD error ~1e-6 / H), see the docstring
