@@ -161,8 +161,8 @@ def _continuation_program(model: Walker, solver: SolverOptions, newton: NewtonOp
 
     # Lines in sub-batches of model.lockstep_batch, as configurations in
     # _independent_program: a line waits at every point for the slowest line of
-    # its sub-batch (the flat-foot walker's map ran 6x faster at 1-2 lines per
-    # sub-batch than at 8: benchmarks/README.md).
+    # its sub-batch (the flat-foot walker's hardest map quarter ran 6x faster
+    # at 2 lines per sub-batch than at 8, 13x at 1: benchmarks/README.md).
     return jax.jit(lambda rows: _in_sub_batches(line, dict(rows), model.lockstep_batch))
 
 
