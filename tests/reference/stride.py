@@ -81,6 +81,23 @@ def _fail(info: dict, status: str, reason: str) -> dict:
     return info
 
 
+def _leg_failure(sol, info: dict, timeout: str, stalled: str) -> dict | None:
+    """The failure of one ``solve_ivp`` leg with events ``[end, stall, fall]``, or ``None``.
+    Counts its evaluations in ``info``; ``timeout``/``stalled`` say what they mean in this leg."""
+    info["nfev"] += sol.nfev
+    if sol.status == -1:
+        return _fail(info, "solver_failed", sol.message)
+    if not np.all(np.isfinite(sol.y)):
+        return _fail(info, "nonfinite", "non-finite state in single support")
+    if sol.status == 0:
+        return _fail(info, "timeout", timeout)
+    if sol.t_events[1].size:
+        return _fail(info, "stalled", stalled)
+    if sol.t_events[2].size:
+        return _fail(info, "fell", "hip below half the leg length")
+    return None
+
+
 def _stride(model: _Model, x0: np.ndarray, drop: float, rtol: float, atol: float,
             t_max: float | None, scuffing: str = "fail") -> tuple[np.ndarray | None, dict]:
     """Integrate single support from ``x0`` to the next heel-strike.
@@ -109,17 +126,9 @@ def _stride(model: _Model, x0: np.ndarray, drop: float, rtol: float, atol: float
     x = x0
     if x[0] > 0.0:  # leg A: until the stance leg passes the slope normal
         sol = solve_ivp(model.rhs, (0.0, t_max), x, events=[_ev_midstance, _ev_stall, _ev_fall], **kw)
-        info["nfev"] += sol.nfev
-        if sol.status == -1:
-            return None, _fail(info, "solver_failed", sol.message)
-        if not np.all(np.isfinite(sol.y)):
-            return None, _fail(info, "nonfinite", "non-finite state in single support")
-        if sol.status == 0:
-            return None, _fail(info, "timeout", "stance leg never passed the slope normal")
-        if sol.t_events[1].size:
-            return None, _fail(info, "stalled", "stance leg stopped before mid-stance")
-        if sol.t_events[2].size:
-            return None, _fail(info, "fell", "hip below half the leg length")
+        failed = _leg_failure(sol, info, "stance leg never passed the slope normal", "stance leg stopped before mid-stance")
+        if failed:
+            return None, failed
         t0 = float(sol.t_events[0][0])
         x = np.array(sol.y_events[0][0])
         if x[1] <= x[0] and scuffing == "fail":
@@ -144,17 +153,9 @@ def _stride(model: _Model, x0: np.ndarray, drop: float, rtol: float, atol: float
     heel = ev_heel
     while True:  # leg B: until heel-strike
         sol = solve_ivp(model.rhs, (t0, t_max), x, events=[heel, _ev_stall, _ev_fall], **kw)
-        info["nfev"] += sol.nfev
-        if sol.status == -1:
-            return None, _fail(info, "solver_failed", sol.message)
-        if not np.all(np.isfinite(sol.y)):
-            return None, _fail(info, "nonfinite", "non-finite state in single support")
-        if sol.status == 0:
-            return None, _fail(info, "timeout", "no heel-strike before t_max")
-        if sol.t_events[1].size:
-            return None, _fail(info, "stalled", "stance leg rotated backwards after mid-stance")
-        if sol.t_events[2].size:
-            return None, _fail(info, "fell", "hip below half the leg length")
+        failed = _leg_failure(sol, info, "no heel-strike before t_max", "stance leg rotated backwards after mid-stance")
+        if failed:
+            return None, failed
         x_minus = np.array(sol.y_events[0][0])
         info["step_time"] = float(sol.t_events[0][0])
         info["x_minus"] = x_minus
