@@ -1,4 +1,4 @@
-"""Stability over a Cartesian grid of parameters, in chunks, on every CPU device.
+"""Stability over a Cartesian grid of parameters, in chunks, on every CPU core.
 
 ``analyse_grid`` cuts the grid into blocks (``chunk_shape``: at most
 ``chunk_size`` points, whole continuation lines) and runs ``analyse_chunk`` on
@@ -6,15 +6,16 @@ each; ``jaxwalk sweep`` runs the same blocks one by one (or on a Dask cluster)
 and streams each to disk. ``analyse_chunk`` lays its block out as one
 batch of configurations (or, with continuation, as lines along one axis),
 cuts it into chunks, runs each chunk as one jitted ``vmap`` program split
-over the available devices (``XLA_FLAGS=--xla_force_host_platform_device_count``
-gives one CPU device per core; each device runs its share from its own thread),
-and returns NumPy arrays shaped like the grid.
+over one worker thread per CPU device (``XLA_FLAGS=
+--xla_force_host_platform_device_count`` gives one per core; the threads share
+one compiled program), and returns NumPy arrays shaped like the grid.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import functools
+import threading
 from concurrent.futures import ThreadPoolExecutor
 from typing import Callable, Mapping
 
@@ -72,9 +73,10 @@ def parameter_grid(model: Walker, fixed: Mapping[str, float], grid: Mapping[str,
     return out
 
 
-#: A chunk of independent configurations is split over the CPU devices only when
-#: each gets at least this many (every device compiles the program once, so small
-#: grids run on one device). Continuation lines are heavier: two per device.
+#: A chunk of independent configurations is split over the worker threads only
+#: when each gets at least this many (a split chunk runs a program of half its
+#: shape: small grids, such as the tests', keep one shape and one compile).
+#: Continuation lines are heavier: two per thread.
 MIN_ROWS_PER_DEVICE = 32
 MIN_LINES_PER_DEVICE = 2
 
@@ -115,34 +117,57 @@ def _device_threads(n_devices: int) -> ThreadPoolExecutor:
     return ThreadPoolExecutor(n_devices, thread_name_prefix="jaxwalk-device")
 
 
-def _run_on_devices(program, block: dict[str, np.ndarray], min_rows_per_device: int = MIN_ROWS_PER_DEVICE):
-    """``program(block)`` as NumPy arrays, the rows split over the CPU devices.
+_executables: dict = {}
+_executables_lock = threading.Lock()
 
-    Each device runs its own copy of the single-device program, launched from
-    its own Python thread (launched one after the other from one thread, the
-    devices' programs did not overlap: measured no faster than one device). One
-    SPMD program sharded over the devices does run them together, but then every
-    iteration of every batched while loop waits for both devices (the loop
-    condition is an all-reduce): 0.65 against 0.45 ms per configuration this way
-    (simplest walker, 2048 configurations, two cores; see benchmarks/README.md).
+
+def _executable(program, args):
+    """``program`` compiled for the shapes and dtypes of ``args``, once per process.
+
+    Every worker thread runs this one executable, on the default CPU device.
+    One copy per device (each thread's input committed to its own device) ran
+    as fast, but compiled the program once per device, side by side: the
+    flat-foot map's cold run peaked at 6.05 GB against 3.27 GB for one copy
+    (the persistent cache's key includes the device, so the second copy is a
+    second compile, not a load). On the CPU a device is a label: executions
+    from several threads on one device run in parallel on the same thread pool
+    (measured: a second core's speed-up is the same either way,
+    benchmarks/README.md).
+    """
+    leaves, tree = jax.tree_util.tree_flatten(args)
+    key = (program, tree, tuple((np.shape(x), np.result_type(x)) for x in leaves))
+    with _executables_lock:
+        if key not in _executables:
+            _executables[key] = program.lower(args).compile()
+        return _executables[key]
+
+
+def _run_on_devices(program, block: dict[str, np.ndarray], min_rows_per_device: int = MIN_ROWS_PER_DEVICE):
+    """``program(block)`` as NumPy arrays, the rows split over one worker thread per CPU device.
+
+    The threads share one compiled program (:func:`_executable`) and each runs
+    it on every n-th row, so the CPU device count (``XLA_FLAGS=
+    --xla_force_host_platform_device_count``, which ``import jaxwalk`` sets to
+    the core count) is the number of cores a sweep keeps busy. Launched one
+    after the other from one thread, the calls did not overlap (measured: no
+    faster than one thread). One SPMD program sharded over the devices does run
+    them together, but then every iteration of every batched while loop waits
+    for both devices (the loop condition is an all-reduce): 0.65 against
+    0.45 ms per configuration this way (simplest walker, 2048 configurations,
+    two cores; see benchmarks/README.md).
     """
     n_rows = next(iter(block.values())).shape[0]
-    devices = jax.devices()
-    n_dev = len(devices)
+    n_dev = jax.device_count()
     if n_dev == 1 or n_rows % n_dev or n_rows // n_dev < min_rows_per_device:
         return jax.tree_util.tree_map(np.asarray, program(block))
 
-    def run(i):
-        # Every n_dev-th row: neighbouring grid points cost about the same, so
-        # the devices get equal work (contiguous halves of a slope sweep differ
-        # by ~15% in steps and Newton iterations).
-        part = {k: v[i::n_dev] for k, v in block.items()}
-        if i:  # device 0 is the default one: uncommitted input shares its compilation
-            part = jax.device_put(part, devices[i])
-        return jax.tree_util.tree_map(np.asarray, program(part))
-
-    outs = list(_device_threads(n_dev).map(run, range(n_dev)))
-    # Interleave back: row j came from device j % n_dev.
+    # Every n_dev-th row: neighbouring grid points cost about the same, so the
+    # threads get equal work (contiguous halves of a slope sweep differ by ~15%
+    # in steps and Newton iterations).
+    parts = [{k: v[i::n_dev] for k, v in block.items()} for i in range(n_dev)]
+    executable = _executable(program, parts[0])
+    outs = list(_device_threads(n_dev).map(lambda part: jax.tree_util.tree_map(np.asarray, executable(part)), parts))
+    # Interleave back: row j came from thread j % n_dev.
     return jax.tree_util.tree_map(lambda *xs: np.stack(xs, axis=1).reshape((n_rows,) + xs[0].shape[1:]), *outs)
 
 

@@ -59,7 +59,7 @@ class Walker:
         context: names of the entries of ``ctx``.
         section_names: names of the independent section coordinates ``v``.
         n_constraints: number of constraint rows (active or not).
-        lockstep_batch: configurations one device runs together in a grid analysis.
+        lockstep_batch: configurations one worker thread runs together in a grid analysis.
     """
 
     name: str = ""
@@ -73,7 +73,7 @@ class Walker:
     n_constraints: int = 0
     #: Units of lengths and times in outputs (period, step length, speed).
     units: dict = {"length": "1", "time": "1"}
-    #: Configurations (or continuation lines) one device advances together,
+    #: Configurations (or continuation lines) one worker thread advances together,
     #: ``vmap``-ed, in a grid analysis (``jaxwalk.grid``). A vmapped while loop
     #: runs until its slowest element is done, every element paying for every
     #: iteration: large batches pay off where every configuration costs about

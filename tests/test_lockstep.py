@@ -1,5 +1,5 @@
 """Lockstep sub-batches (``Walker.lockstep_batch``, ``grid._in_sub_batches``):
-how many configurations a device advances together must not change what each
+how many configurations a worker thread advances together must not change what each
 one computes."""
 
 from __future__ import annotations

@@ -1,0 +1,55 @@
+"""Worker threads (``grid._run_on_devices``): a chunk's rows split over one thread
+per CPU device, all threads running one compiled program."""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from jaxwalk import grid as G
+
+pytestmark = pytest.mark.skipif(jax.device_count() < 2, reason="needs two CPU devices (XLA_FLAGS, as .ci/run sets)")
+
+
+def _newton_sqrt(p):
+    """sqrt(a) by Newton from 1, with a row-dependent trip count (as the gait search has)."""
+
+    def cond(c):
+        x, k = c
+        return (jnp.abs(x * x - p["a"]) > 1e-14 * p["a"]) & (k < 100)
+
+    def body(c):
+        x, k = c
+        return 0.5 * (x + p["a"] / x), k + 1
+
+    return jax.lax.while_loop(cond, body, (jnp.ones(()), jnp.zeros((), jnp.int32)))
+
+
+def test_threads_share_one_compile_and_equal_one_call():
+    n_dev = jax.device_count()
+    rows = 32 * n_dev
+    block = {"a": np.geomspace(1e-6, 1e12, rows)}
+    program = jax.jit(jax.vmap(_newton_sqrt))
+    whole = jax.tree_util.tree_map(np.asarray, program(block))
+
+    split = G._run_on_devices(program, block, min_rows_per_device=32)
+    for a, b in zip(whole, split):
+        np.testing.assert_array_equal(a, b)  # every row where it was, the same numbers
+    assert len(set(whole[1].tolist())) > 3  # rows took different trip counts
+
+    # One executable, for one thread's share: not one per device.
+    compiled = [key for key in G._executables if key[0] is program]
+    assert len(compiled) == 1
+    assert compiled[0][2] == (((rows // n_dev,), np.dtype(np.float64)),)
+    G._run_on_devices(program, block, min_rows_per_device=32)
+    assert len([key for key in G._executables if key[0] is program]) == 1  # the second chunk reuses it
+
+
+def test_small_chunks_stay_on_one_thread():
+    program = jax.jit(jax.vmap(_newton_sqrt))
+    block = {"a": np.linspace(1.0, 2.0, 8)}
+    out = G._run_on_devices(program, block, min_rows_per_device=32)
+    assert out[0].shape == (8,)
+    assert not [key for key in G._executables if key[0] is program]  # the plain jitted call
