@@ -3,7 +3,7 @@
 Per configuration (a slope gamma): the period-one gait by Newton-Raphson, the
 Jacobian of the step map at it, its eigenvalues and lambda_max.
 
-* jaxwalk: ``analyse_grid`` (vmap over configs in sub-batches, one program per CPU device,
+* jaxwalk: ``analyse_grid`` (vmap over configs in sub-batches, one worker thread per CPU device,
   forward-mode Jacobians), compile time measured apart (``lower().compile()``).
 * baseline: the paper's method in SciPy, one config at a time (DOP853 with
   events at rtol 1e-10, Newton with a central-difference Jacobian), from
