@@ -132,7 +132,8 @@ def _executable(program, args):
     second compile, not a load). On the CPU a device is a label: executions
     from several threads on one device run in parallel on the same thread pool
     (measured: a second core's speed-up is the same either way,
-    benchmarks/README.md).
+    benchmarks/README.md). A chunk run on one thread takes the same path, so
+    a shape compiled for one is not compiled again for the other.
     """
     leaves, tree = jax.tree_util.tree_flatten(args)
     key = (program, tree, tuple((np.shape(x), np.result_type(x)) for x in leaves))
@@ -140,6 +141,12 @@ def _executable(program, args):
         if key not in _executables:
             _executables[key] = program.lower(args).compile()
         return _executables[key]
+
+
+def compiled_count(program) -> int:
+    """How many shapes ``program`` has been compiled for in this process (:func:`_executable`)."""
+    with _executables_lock:
+        return sum(1 for key in _executables if key[0] is program)
 
 
 def _run_on_devices(program, block: dict[str, np.ndarray], min_rows_per_device: int = MIN_ROWS_PER_DEVICE):
@@ -159,7 +166,7 @@ def _run_on_devices(program, block: dict[str, np.ndarray], min_rows_per_device: 
     n_rows = next(iter(block.values())).shape[0]
     n_dev = jax.device_count()
     if n_dev == 1 or n_rows % n_dev or n_rows // n_dev < min_rows_per_device:
-        return jax.tree_util.tree_map(np.asarray, program(block))
+        return jax.tree_util.tree_map(np.asarray, _executable(program, block)(block))
 
     # Every n_dev-th row: neighbouring grid points cost about the same, so the
     # threads get equal work (contiguous halves of a slope sweep differ by ~15%

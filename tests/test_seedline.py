@@ -44,9 +44,9 @@ def _program():
 @pytest.fixture(scope="module")
 def runs():
     plain = G.analyse_grid(MODEL, {}, GRID, "m_h", OPTIONS)
-    compiled = _program()._cache_size()
+    compiled = G.compiled_count(_program())
     seeded = G.analyse_grid(MODEL, {}, GRID, "m_h", OPTIONS, seed_axis="gamma")
-    return plain, seeded, compiled, _program()._cache_size()
+    return plain, seeded, compiled, G.compiled_count(_program())
 
 
 def test_seeding_finds_the_lines_lost_without_it(runs):
@@ -74,7 +74,7 @@ def test_shorter_seed_line_is_padded_into_the_same_program(runs):
     _, seeded, _, compiled = runs
     short = {"gamma": GRID["gamma"][:2], "m_h": GRID["m_h"]}
     seeds = seed_lines(MODEL, {}, short, "m_h", "gamma", OPTIONS)
-    assert _program()._cache_size() == compiled
+    assert G.compiled_count(_program()) == compiled
     assert (seeds.status == 0).all() and seeds.v.shape == (2, 3)
     np.testing.assert_allclose(seeds.v, seeded["seed_line_fixed_point"][:2], atol=1e-9)
 

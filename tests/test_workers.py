@@ -41,15 +41,18 @@ def test_threads_share_one_compile_and_equal_one_call():
 
     # One executable, for one thread's share: not one per device.
     compiled = [key for key in G._executables if key[0] is program]
-    assert len(compiled) == 1
+    assert len(compiled) == 1 and G.compiled_count(program) == 1
     assert compiled[0][2] == (((rows // n_dev,), np.dtype(np.float64)),)
     G._run_on_devices(program, block, min_rows_per_device=32)
-    assert len([key for key in G._executables if key[0] is program]) == 1  # the second chunk reuses it
+    assert G.compiled_count(program) == 1  # the second chunk reuses it
 
 
-def test_small_chunks_stay_on_one_thread():
+def test_small_chunks_stay_on_one_thread_and_share_its_compile():
     program = jax.jit(jax.vmap(_newton_sqrt))
     block = {"a": np.linspace(1.0, 2.0, 8)}
     out = G._run_on_devices(program, block, min_rows_per_device=32)
     assert out[0].shape == (8,)
-    assert not [key for key in G._executables if key[0] is program]  # the plain jitted call
+    assert [key[2] for key in G._executables if key[0] is program] == [(((8,), np.dtype(np.float64)),)]
+    # A chunk of 8 rows per thread, split over the threads, runs the 8-row executable again.
+    G._run_on_devices(program, {"a": np.linspace(1.0, 2.0, 8 * jax.device_count())}, min_rows_per_device=8)
+    assert G.compiled_count(program) == 1
