@@ -4,27 +4,13 @@ per CPU device, all threads running one compiled program."""
 from __future__ import annotations
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 import pytest
 
 from jaxwalk import grid as G
+from tests.test_lockstep import _newton_sqrt  # a while loop with row-dependent trip counts
 
 pytestmark = pytest.mark.skipif(jax.device_count() < 2, reason="needs two CPU devices (XLA_FLAGS, as .ci/run sets)")
-
-
-def _newton_sqrt(p):
-    """sqrt(a) by Newton from 1, with a row-dependent trip count (as the gait search has)."""
-
-    def cond(c):
-        x, k = c
-        return (jnp.abs(x * x - p["a"]) > 1e-14 * p["a"]) & (k < 100)
-
-    def body(c):
-        x, k = c
-        return 0.5 * (x + p["a"] / x), k + 1
-
-    return jax.lax.while_loop(cond, body, (jnp.ones(()), jnp.zeros((), jnp.int32)))
 
 
 def test_threads_share_one_compile_and_equal_one_call():
