@@ -15,8 +15,6 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import threading
-from concurrent.futures import ThreadPoolExecutor
 from typing import Callable, Mapping
 
 import jax
@@ -28,6 +26,7 @@ from jaxwalk.gait import Gait, NewtonOptions, find_gait
 from jaxwalk.step import SolverOptions
 from jaxwalk.stepdown import StepDownOptions, h_max
 from jaxwalk.walker import Walker
+from jaxwalk.workers import run_on_threads, thread_count
 
 
 @dataclasses.dataclass(frozen=True)
@@ -40,7 +39,7 @@ class AnalysisOptions:
             work, of resuming and of the dataset's zarr chunks; with
             continuation, ``chunk_size // line length`` whole lines, at least
             one); also the rows per jitted call, rounded up to a multiple of
-            the device count.
+            the worker threads (``jaxwalk.workers``).
         step_down: settings of the global-stability test (the paper's h_m);
             ``None`` skips it.
     """
@@ -77,8 +76,8 @@ def parameter_grid(model: Walker, fixed: Mapping[str, float], grid: Mapping[str,
 #: when each gets at least this many (a split chunk runs a program of half its
 #: shape: small grids, such as the tests', keep one shape and one compile).
 #: Continuation lines are heavier: two per thread.
-MIN_ROWS_PER_DEVICE = 32
-MIN_LINES_PER_DEVICE = 2
+MIN_ROWS_PER_THREAD = 32
+MIN_LINES_PER_THREAD = 2
 
 
 def _in_sub_batches(fn, params, sub_batch: int):
@@ -110,72 +109,6 @@ def _independent_program(model: Walker, solver: SolverOptions, newton: NewtonOpt
 
     # Per configuration the same computation as continuation.gaits_independent.
     return jax.jit(lambda p: _in_sub_batches(one, dict(p), model.lockstep_batch))
-
-
-@functools.lru_cache(maxsize=1)
-def _device_threads(n_devices: int) -> ThreadPoolExecutor:
-    return ThreadPoolExecutor(n_devices, thread_name_prefix="jaxwalk-device")
-
-
-_executables: dict = {}
-_executables_lock = threading.Lock()
-
-
-def _executable(program, args):
-    """``program`` compiled for the shapes and dtypes of ``args``, once per process.
-
-    Every worker thread runs this one executable, on the default CPU device.
-    One copy per device (each thread's input committed to its own device) ran
-    as fast, but compiled the program once per device, side by side: the
-    flat-foot map's cold run peaked at 6.05 GB against 3.27 GB for one copy
-    (the persistent cache's key includes the device, so the second copy is a
-    second compile, not a load). On the CPU a device is a label: executions
-    from several threads on one device run in parallel on the same thread pool
-    (measured: a second core's speed-up is the same either way,
-    benchmarks/README.md). A chunk run on one thread takes the same path, so
-    a shape compiled for one is not compiled again for the other.
-    """
-    leaves, tree = jax.tree_util.tree_flatten(args)
-    key = (program, tree, tuple((np.shape(x), np.result_type(x)) for x in leaves))
-    with _executables_lock:
-        if key not in _executables:
-            _executables[key] = program.lower(args).compile()
-        return _executables[key]
-
-
-def compiled_count(program) -> int:
-    """How many shapes ``program`` has been compiled for in this process (:func:`_executable`)."""
-    with _executables_lock:
-        return sum(1 for key in _executables if key[0] is program)
-
-
-def _run_on_devices(program, block: dict[str, np.ndarray], min_rows_per_device: int = MIN_ROWS_PER_DEVICE):
-    """``program(block)`` as NumPy arrays, the rows split over one worker thread per CPU device.
-
-    The threads share one compiled program (:func:`_executable`) and each runs
-    it on every n-th row, so the CPU device count (``XLA_FLAGS=
-    --xla_force_host_platform_device_count``, which ``import jaxwalk`` sets to
-    the core count) is the number of cores a sweep keeps busy. Launched one
-    after the other from one thread, the calls did not overlap (measured: no
-    faster than one thread). One SPMD program sharded over the devices does run
-    them together, but then every iteration of every batched while loop waits
-    for both devices (the loop condition is an all-reduce): 0.65 against
-    0.45 ms per configuration this way (simplest walker, 2048 configurations,
-    two cores; see benchmarks/README.md).
-    """
-    n_rows = next(iter(block.values())).shape[0]
-    n_dev = jax.device_count()
-    if n_dev == 1 or n_rows % n_dev or n_rows // n_dev < min_rows_per_device:
-        return jax.tree_util.tree_map(np.asarray, _executable(program, block)(block))
-
-    # Every n_dev-th row: neighbouring grid points cost about the same, so the
-    # threads get equal work (contiguous halves of a slope sweep differ by ~15%
-    # in steps and Newton iterations).
-    parts = [{k: v[i::n_dev] for k, v in block.items()} for i in range(n_dev)]
-    executable = _executable(program, parts[0])
-    outs = list(_device_threads(n_dev).map(lambda part: jax.tree_util.tree_map(np.asarray, executable(part)), parts))
-    # Interleave back: row j came from thread j % n_dev.
-    return jax.tree_util.tree_map(lambda *xs: np.stack(xs, axis=1).reshape((n_rows,) + xs[0].shape[1:]), *outs)
 
 
 @functools.lru_cache(maxsize=None)
@@ -246,7 +179,7 @@ def run_lines(
     length: int | None = None,
 ) -> Gait:
     """Continuation along ``n_lines`` lines (``(n_lines, n)`` parameter arrays),
-    chunked and split over the devices; a :class:`Gait` of ``(n_lines, n)`` leaves.
+    chunked and split over the worker threads; a :class:`Gait` of ``(n_lines, n)`` leaves.
     ``lines_per_call`` pads each call to that many lines (default: as many as
     ``options.chunk_size`` allows, fewer for fewer lines: :func:`_run_chunks`);
     ``length`` pads each line (:func:`line_rows`; the result keeps ``n``)."""
@@ -256,7 +189,7 @@ def run_lines(
     program = _continuation_program(model, options.solver, options.newton)
     line_progress = None if progress is None else (lambda k: progress(k * n))
     gaits = _run_chunks(
-        program, rows, max(1, options.chunk_size // n_run), line_progress, MIN_LINES_PER_DEVICE, lines_per_call
+        program, rows, max(1, options.chunk_size // n_run), line_progress, MIN_LINES_PER_THREAD, lines_per_call
     )
     return jax.tree_util.tree_map(lambda x: x[:, :n], gaits)
 
@@ -276,16 +209,16 @@ def _run_chunks(
     params_rows: dict[str, np.ndarray],
     chunk: int,
     progress: Callable[[int], None] | None,
-    min_rows_per_device: int = MIN_ROWS_PER_DEVICE,
+    min_rows_per_thread: int = MIN_ROWS_PER_THREAD,
     rows: int | None = None,
 ) -> Gait:
     """Apply ``program`` to ``params_rows`` (leading axis = rows) chunk by chunk
     (``rows`` per call if given, to share another call's compiled shape)."""
     n_rows = next(iter(params_rows.values())).shape[0]
-    n_dev = jax.device_count()
+    n_threads = thread_count()
     # Few distinct shapes, few compilations: small inputs pad to a power of two.
     rows = rows or min(chunk, 1 << max(0, (n_rows - 1).bit_length()))
-    chunk = max(n_dev, -(-rows // n_dev) * n_dev)
+    chunk = max(n_threads, -(-rows // n_threads) * n_threads)
     pieces = []
     for start in range(0, n_rows, chunk):
         stop = min(start + chunk, n_rows)
@@ -293,7 +226,7 @@ def _run_chunks(
         pad = chunk - (stop - start)
         if pad:  # pad with copies of the last row so every chunk has one shape (one compile)
             block = {k: np.concatenate([v, np.repeat(v[-1:], pad, axis=0)]) for k, v in block.items()}
-        out = _run_on_devices(program, block, min_rows_per_device)
+        out = run_on_threads(program, block, min_rows_per_thread)
         out = jax.tree_util.tree_map(lambda x: x[: stop - start], out)
         pieces.append(out)
         if progress is not None:
