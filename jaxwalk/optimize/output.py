@@ -79,9 +79,8 @@ def compute_heatmap(config: OptimizeConfig, model, solver, newton) -> xr.Dataset
     first = {k: float(v[0]) for k, v in config.fixed_per_start().items()}
     first.update({n: float(config.starts[0, i]) for i, n in enumerate(config.problem.names)})
     fixed = {k: v for k, v in first.items() if k not in grid}
-    # Small chunks stay on one device: batched LAPACK calls from two device
-    # threads have deadlocked for the kneed and flat-foot walkers.
-    options = AnalysisOptions(solver=solver, newton=newton, chunk_size=32)
+    # The sweep's default chunks, on every worker thread (docs/optimize.md).
+    options = AnalysisOptions(solver=solver, newton=newton)
     out = analyse_grid(model, fixed, grid, config.heatmap_continuation, options)
     dims = [f"heatmap_{a}" for a in grid]
     coords = {f"heatmap_{a}": (f"heatmap_{a}", v, {"long_name": model.param_specs[a].description, "units": model.param_specs[a].units}) for a, v in grid.items()}
