@@ -21,6 +21,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxwalk import program_cache
 from jaxwalk.continuation import continue_along, seed_index, visiting_order
 from jaxwalk.gait import Gait, NewtonOptions, find_gait
 from jaxwalk.step import SolverOptions
@@ -108,7 +109,9 @@ def _independent_program(model: Walker, solver: SolverOptions, newton: NewtonOpt
         return find_gait(model, p, model.initial_guess(p), solver, newton)
 
     # Per configuration the same computation as continuation.gaits_independent.
-    return jax.jit(lambda p: _in_sub_batches(one, dict(p), model.lockstep_batch))
+    program = jax.jit(lambda p: _in_sub_batches(one, dict(p), model.lockstep_batch))
+    program_cache.register(program, "independent", model, solver, newton)
+    return program
 
 
 @functools.lru_cache(maxsize=None)
@@ -128,7 +131,9 @@ def _continuation_program(model: Walker, solver: SolverOptions, newton: NewtonOp
     # _independent_program: a line waits at every point for the slowest line of
     # its sub-batch (the flat-foot walker's hardest map quarter ran 6x faster
     # at 2 lines per sub-batch than at 8, 13x at 1: benchmarks/README.md).
-    return jax.jit(lambda rows: _in_sub_batches(line, dict(rows), model.lockstep_batch))
+    program = jax.jit(lambda rows: _in_sub_batches(line, dict(rows), model.lockstep_batch))
+    program_cache.register(program, "continuation", model, solver, newton)
+    return program
 
 
 def line_rows(
@@ -201,7 +206,9 @@ def _step_down_program(model: Walker, solver: SolverOptions, step_down: StepDown
         return h_max(model, p, v, step_down, solver)
 
     # Every drop of every step in lockstep across a sub-batch: model.lockstep_batch.
-    return jax.jit(lambda rows: _in_sub_batches(one, dict(rows), model.lockstep_batch))
+    program = jax.jit(lambda rows: _in_sub_batches(one, dict(rows), model.lockstep_batch))
+    program_cache.register(program, "step_down", model, solver, step_down)
+    return program
 
 
 def _run_chunks(

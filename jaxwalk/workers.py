@@ -17,6 +17,8 @@ from concurrent.futures import ThreadPoolExecutor
 import jax
 import numpy as np
 
+from jaxwalk import program_cache
+
 
 def thread_count() -> int:
     """Worker threads a batch is split over: one per CPU device."""
@@ -44,13 +46,15 @@ def executable(program, args):
     from several threads on one device run in parallel on the same thread pool
     (measured: a second core's speed-up is the same either way,
     benchmarks/README.md). A chunk run on one thread takes the same path, so
-    a shape compiled for one is not compiled again for the other.
+    a shape compiled for one is not compiled again for the other. A program
+    registered with :mod:`jaxwalk.program_cache` is loaded from disk, not
+    traced, when a run before traced it.
     """
     leaves, tree = jax.tree_util.tree_flatten(args)
     key = (program, tree, tuple((np.shape(x), np.result_type(x)) for x in leaves))
     with _executables_lock:
         if key not in _executables:
-            _executables[key] = program.lower(args).compile()
+            _executables[key] = program_cache.lower(program, args).compile()
         return _executables[key]
 
 

@@ -1,0 +1,149 @@
+"""Traced grid programs kept on disk, so that a rerun skips tracing.
+
+JAX's persistent compilation cache (``JAX_COMPILATION_CACHE_DIR``) keeps compiled
+programs, not the tracing before compiling. Tracing the flat-foot walker's
+grid programs (nested while loops: Newton, the step's phases, diffrax's steps,
+the event root finder, all under forward-mode derivatives) takes about 50 s
+per program on every run. With that cache set and ``EQX_ON_ERROR=nan`` (without
+it equinox's error checks are host callbacks, which neither cache can keep), a
+grid program is exported once (``jax.export``: the program as traced and
+lowered, StableHLO) into ``$JAX_COMPILATION_CACHE_DIR/jaxwalk-programs/``, and
+later runs load it instead of tracing.
+
+The key is a hash of everything the trace depends on: what the program is and
+its settings (:func:`register`), the input's shapes and dtypes, the source of
+every jaxwalk module and of every module defining a class of the model, and
+the versions of the libraries that trace (jax, jaxlib, diffrax, equinox,
+optimistix, lineax, numpy). Change any of them and the program is traced
+afresh. Every run, the one that exports included, runs the exported program,
+so a run that traced and a run that loaded compute the same numbers bit for bit.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import importlib.metadata
+import inspect
+import os
+import tempfile
+from pathlib import Path
+
+import jax
+from jax import export
+
+from jaxwalk.gait import Gait
+from jaxwalk.stepdown import StepDownResult
+
+#: Output types of the grid programs, so that their exported form can be saved.
+for _type in (Gait, StepDownResult):
+    export.register_namedtuple_serialization(_type, serialized_name=f"{_type.__module__}.{_type.__qualname__}")
+
+_LIBRARIES = ("jax", "jaxlib", "diffrax", "equinox", "optimistix", "lineax", "numpy")
+_PACKAGE = Path(__file__).resolve().parent
+_identities: dict = {}
+
+
+def register(program, kind: str, model, *settings) -> None:
+    """Name ``program`` (a jitted function) for the disk cache: ``kind`` (which
+    factory made it), the model (its class, name and lockstep batch) and the
+    settings it closes over (dataclasses; their ``repr`` holds every field)."""
+    model_id = f"{type(model).__module__}.{type(model).__qualname__}:{model.name}:{model.lockstep_batch}:{sorted(vars(model).items())!r}"
+    _identities[program] = (kind, model_id, tuple(repr(s) for s in settings), type(model))
+
+
+def cache_directory() -> Path | None:
+    """Where exported programs go, or ``None`` when the disk cache is off."""
+    root = os.environ.get("JAX_COMPILATION_CACHE_DIR")
+    if not root or os.environ.get("EQX_ON_ERROR") != "nan":
+        return None
+    return Path(root) / "jaxwalk-programs"
+
+
+@functools.lru_cache(maxsize=None)
+def _file_hash(path: str) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+@functools.lru_cache(maxsize=1)
+def _environment_hash() -> str:
+    """jaxwalk's own source, the tracing libraries' versions, float64 on or off."""
+    h = hashlib.sha256()
+    for path in sorted(_PACKAGE.rglob("*.py")):
+        h.update(f"{path.relative_to(_PACKAGE)}:{_file_hash(str(path))}\n".encode())
+    for name in _LIBRARIES:
+        try:
+            version = importlib.metadata.version(name)
+        except importlib.metadata.PackageNotFoundError:
+            version = "absent"
+        h.update(f"{name}=={version}\n".encode())
+    h.update(f"x64={jax.config.jax_enable_x64}\n".encode())
+    return h.hexdigest()
+
+
+def _model_sources(model_class) -> list[str]:
+    """Source files of the model's classes outside jaxwalk (a user's or a test's model)."""
+    files = set()
+    for cls in model_class.__mro__:
+        try:
+            path = inspect.getsourcefile(cls)
+        except TypeError:  # builtins
+            continue
+        if path and not Path(path).resolve().is_relative_to(_PACKAGE):
+            files.add(str(Path(path).resolve()))
+    return sorted(files)
+
+
+def program_key(program, args) -> str | None:
+    """The cache key of ``program`` at ``args``' shapes, or ``None`` if it was not registered."""
+    identity = _identities.get(program)
+    if identity is None:
+        return None
+    kind, model_id, settings, model_class = identity
+    leaves, tree = jax.tree_util.tree_flatten(args)
+    signature = [(tuple(x.shape), str(x.dtype)) for x in map(jax.numpy.asarray, leaves)]
+    h = hashlib.sha256()
+    for part in (kind, model_id, *settings, str(tree), repr(signature), _environment_hash()):
+        h.update(part.encode() + b"\0")
+    for path in _model_sources(model_class):
+        h.update(f"{path}:{_file_hash(path)}\0".encode())
+    return h.hexdigest()
+
+
+def _load(path: Path):
+    try:
+        return export.deserialize(bytearray(path.read_bytes()))
+    except Exception:  # absent, half-written by a killed run, or from another jax: trace afresh
+        return None
+
+
+def _save(path: Path, exported) -> None:
+    """Write atomically (a temporary file renamed): concurrent runs may share the directory."""
+    try:
+        data = exported.serialize()
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-")
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+        os.chmod(tmp, 0o644)  # as the compilation cache's files: readable by whoever shares it
+        os.replace(tmp, path)
+    except Exception:  # a read-only or full disk costs the next run a trace, nothing else
+        return
+
+
+def lower(program, args):
+    """``program`` lowered for ``args``: from the disk cache when it holds it, else
+    traced (and, with the cache on, exported and saved, then run as exported)."""
+    root = cache_directory()
+    key = None if root is None else program_key(program, args)
+    if key is None:
+        return program.lower(args)
+    path = root / f"{key}.jaxexport"
+    exported = _load(path)
+    if exported is None:
+        try:
+            exported = export.export(program)(args)
+        except Exception:  # something the exporter cannot hold: the plain path
+            return program.lower(args)
+        _save(path, exported)
+    return jax.jit(exported.call).lower(args)
