@@ -30,6 +30,7 @@ import tempfile
 from pathlib import Path
 
 import jax
+import numpy as np
 from jax import export
 
 from jaxwalk.gait import Gait
@@ -101,7 +102,7 @@ def program_key(program, args) -> str | None:
         return None
     kind, model_id, settings, model_class = identity
     leaves, tree = jax.tree_util.tree_flatten(args)
-    signature = [(tuple(x.shape), str(x.dtype)) for x in map(jax.numpy.asarray, leaves)]
+    signature = [(tuple(np.shape(x)), str(np.result_type(x))) for x in leaves]  # as workers.executable's key
     h = hashlib.sha256()
     for part in (kind, model_id, *settings, str(tree), repr(signature), _environment_hash()):
         h.update(part.encode() + b"\0")
