@@ -8,6 +8,11 @@ Commands:
                                   heatmaps and line plots of a sweep dataset (docs/plot.md)
     optimize CONFIG.toml --out DIR [--heatmap DATASET]
                                   minimise lambda_max (or another metric) by gradients (docs/optimize.md)
+    cache info|clear              the compiled and traced programs kept between runs (docs/cache.md)
+
+Every command takes ``--cache-dir DIR`` (where programs are kept; default
+``$JAXWALK_CACHE_DIR``, else ``$XDG_CACHE_HOME/jaxwalk`` or ``~/.cache/jaxwalk``)
+and ``--no-cache``, before or after its name.
 
 Each command is a small function ``cmd_<name>(args) -> exit status`` with its
 own ``add_<name>`` that declares its arguments; :func:`build_parser` lists
@@ -24,6 +29,7 @@ from __future__ import annotations
 import argparse
 import shlex
 import sys
+import warnings
 from typing import Callable, Sequence
 
 PROG = "jaxwalk"
@@ -37,6 +43,13 @@ class UsageError(Exception):
 class _Parser(argparse.ArgumentParser):
     def error(self, message: str):  # argparse would print the usage too: keep it to one line
         raise UsageError(message)
+
+
+class _SubParser(_Parser):
+    """A command's parser: it also takes ``--cache-dir`` and ``--no-cache``."""
+
+    def __init__(self, *args, parents=(), **kwargs):
+        super().__init__(*args, parents=[*parents, _cache_options()], **kwargs)
 
 
 # ---------------------------------------------------------------- sweep
@@ -202,18 +215,80 @@ def cmd_optimize(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+# ---------------------------------------------------------------- cache
+
+
+def add_cache(sub) -> None:
+    p = sub.add_parser(
+        "cache", help="show or clear the compiled and traced programs kept between runs", description=cmd_cache.__doc__
+    )
+    p.add_argument("action", choices=("info", "clear"), help="info: where and how much; clear: delete them")
+    p.set_defaults(run=cmd_cache)
+
+
+def cmd_cache(args: argparse.Namespace) -> int:
+    """Where jaxwalk keeps compiled (XLA) and traced (StableHLO) programs and how much
+    they take (info), or delete them (clear); the next run compiles afresh."""
+    from jaxwalk import cache
+
+    if cache.directory() is None:
+        print("caches off (--no-cache, or JAXWALK_CACHE_DIR set empty)")
+        return EXIT_OK
+    found = cache.clear() if args.action == "clear" else cache.info()
+    verb = "removed" if args.action == "clear" else "holds"
+    print(
+        f"{found.directory} {verb} {found.compiled_files} compiled ({_mib(found.compiled_bytes)}) and "
+        f"{found.traced_files} traced programs ({_mib(found.traced_bytes)})"
+    )
+    return EXIT_OK
+
+
+def _mib(n: int) -> str:
+    return f"{n / 2**20:.1f} MiB"
+
+
+def _cache_options() -> argparse.ArgumentParser:
+    """``--cache-dir`` and ``--no-cache``, accepted before and after the command's name
+    (``SUPPRESS``: a subcommand's absent option does not hide the main parser's)."""
+    p = argparse.ArgumentParser(add_help=False)
+    p.add_argument(
+        "--cache-dir", default=argparse.SUPPRESS, metavar="DIR",
+        help="keep compiled and traced programs in DIR (default $JAXWALK_CACHE_DIR, else ~/.cache/jaxwalk)",
+    )
+    p.add_argument("--no-cache", action="store_true", default=argparse.SUPPRESS, help="keep no programs: compile afresh")
+    return p
+
+
+def _configure_cache(args: argparse.Namespace) -> None:
+    from jaxwalk import cache
+
+    if getattr(args, "no_cache", False):
+        cache.configure(enabled=False)
+    elif getattr(args, "cache_dir", None) is not None:
+        cache.configure(args.cache_dir)
+    else:
+        cache.report()  # the default directory, configured by ``import jaxwalk``
+
+
+def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """Warnings as the command line's other messages: one line, no source."""
+    print(f"{PROG}: warning: {' '.join(str(message).split())}", file=sys.stderr if file is None else file)
+
+
 # ---------------------------------------------------------------- parser
 
 #: The commands, in the order ``--help`` lists them.
-COMMANDS: tuple[Callable, ...] = (add_sweep, add_simulate, add_plot, add_optimize)
+COMMANDS: tuple[Callable, ...] = (add_sweep, add_simulate, add_plot, add_optimize, add_cache)
 
 
 def build_parser() -> argparse.ArgumentParser:
     from jaxwalk import __version__
 
-    parser = _Parser(prog=PROG, description="JAX-vectorised stability analysis of dynamic walkers.")
+    parser = _Parser(
+        prog=PROG, description="JAX-vectorised stability analysis of dynamic walkers.", parents=[_cache_options()]
+    )
     parser.add_argument("--version", action="version", version=f"{PROG} {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True, parser_class=_SubParser)
     for add in COMMANDS:
         add(sub)
     return parser
@@ -224,9 +299,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     from jaxwalk.sweep.config import ConfigError
 
     argv = list(sys.argv[1:] if argv is None else argv)
+    warnings.showwarning = _one_line_warning
     try:
         args = build_parser().parse_args(argv)
         args.command_line = shlex.join([PROG, *argv])
+        _configure_cache(args)
         return args.run(args)
     except (UsageError, ConfigError) as err:
         return _fail(str(err), EXIT_USAGE)

@@ -1,14 +1,15 @@
 """Traced grid programs kept on disk, so that a rerun skips tracing.
 
-JAX's persistent compilation cache (``JAX_COMPILATION_CACHE_DIR``) keeps compiled
-programs, not the tracing before compiling. Tracing the flat-foot walker's
-grid programs (nested while loops: Newton, the step's phases, diffrax's steps,
-the event root finder, all under forward-mode derivatives) takes about 50 s
-per program on every run. With that cache set and ``EQX_ON_ERROR=nan`` (without
-it equinox's error checks are host callbacks, which neither cache can keep), a
-grid program is exported once (``jax.export``: the program as traced and
-lowered, StableHLO) into ``$JAX_COMPILATION_CACHE_DIR/jaxwalk-programs/``, and
-later runs load it instead of tracing.
+JAX's persistent compilation cache keeps compiled programs, not the tracing
+before compiling. Tracing the flat-foot walker's grid programs (nested while
+loops: Newton, the step's phases, diffrax's steps, the event root finder, all
+under forward-mode derivatives) takes about 50 s per program on every run.
+With the caches on (:mod:`jaxwalk.cache`, the default) and ``EQX_ON_ERROR=nan``
+(``import jaxwalk`` sets it; without it equinox's error checks are host
+callbacks, which neither cache can keep), a grid program is exported once
+(``jax.export``: the program as traced and lowered, StableHLO) into
+``<cache directory>/jaxwalk-programs/``, and later runs load it instead of
+tracing.
 
 The key is a hash of everything the trace depends on: what the program is and
 its settings (:func:`register`), the input's shapes and dtypes, the source of
@@ -27,12 +28,14 @@ import importlib.metadata
 import inspect
 import os
 import tempfile
+import warnings
 from pathlib import Path
 
 import jax
 import numpy as np
 from jax import export
 
+from jaxwalk import cache
 from jaxwalk.gait import Gait
 from jaxwalk.stepdown import StepDownResult
 
@@ -43,6 +46,8 @@ for _type in (Gait, StepDownResult):
 _LIBRARIES = ("jax", "jaxlib", "diffrax", "equinox", "optimistix", "lineax", "numpy")
 _PACKAGE = Path(__file__).resolve().parent
 _identities: dict = {}
+#: Grid programs this process traced, and loaded from disk instead (tests count them).
+counts = {"traced": 0, "loaded": 0}
 
 
 def register(program, kind: str, model, *settings) -> None:
@@ -55,10 +60,10 @@ def register(program, kind: str, model, *settings) -> None:
 
 def cache_directory() -> Path | None:
     """Where exported programs go, or ``None`` when the disk cache is off."""
-    root = os.environ.get("JAX_COMPILATION_CACHE_DIR")
-    if not root or os.environ.get("EQX_ON_ERROR") != "nan":
+    root = cache.directory()
+    if root is None or os.environ.get("EQX_ON_ERROR") != "nan":
         return None
-    return Path(root) / "jaxwalk-programs"
+    return root / cache.PROGRAMS
 
 
 @functools.lru_cache(maxsize=None)
@@ -128,23 +133,28 @@ def _save(path: Path, exported) -> None:
             f.write(data)
         os.chmod(tmp, 0o644)  # as the compilation cache's files: readable by whoever shares it
         os.replace(tmp, path)
-    except Exception:  # a read-only or full disk costs the next run a trace, nothing else
-        return
+    except Exception as err:  # a read-only or full disk costs the next run a trace, nothing else
+        warnings.warn(f"traced program not kept in the cache ({' '.join(str(err).split())})", cache.CacheWarning, stacklevel=3)
 
 
 def lower(program, args):
     """``program`` lowered for ``args``: from the disk cache when it holds it, else
     traced (and, with the cache on, exported and saved, then run as exported)."""
+    cache.report()
     root = cache_directory()
     key = None if root is None else program_key(program, args)
     if key is None:
+        counts["traced"] += 1
         return program.lower(args)
     path = root / f"{key}.jaxexport"
     exported = _load(path)
     if exported is None:
+        counts["traced"] += 1
         try:
             exported = export.export(program)(args)
         except Exception:  # something the exporter cannot hold: the plain path
             return program.lower(args)
         _save(path, exported)
+    else:
+        counts["loaded"] += 1
     return jax.jit(exported.call).lower(args)

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from jaxwalk import grid as G
-from jaxwalk import program_cache
+from jaxwalk import cache, program_cache
 from jaxwalk.models.compass import CompassWalker
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -49,9 +49,12 @@ print(json.dumps({"traced": len(traced), "ok": int((out["status"] == 0).sum())})
 
 @pytest.fixture
 def disk_cache(tmp_path, monkeypatch):
-    monkeypatch.setenv("JAX_COMPILATION_CACHE_DIR", str(tmp_path))
+    before = cache.directory()
     monkeypatch.setenv("EQX_ON_ERROR", "nan")
-    return tmp_path / "jaxwalk-programs"
+    monkeypatch.setenv(cache.ENV, str(tmp_path))  # for the rerun's process; restored after
+    cache.configure(tmp_path)
+    yield tmp_path / "jaxwalk-programs"
+    cache.configure(before, enabled=before is not None)
 
 
 def test_a_rerun_loads_the_program_and_computes_the_same(disk_cache, tmp_path):
@@ -111,11 +114,15 @@ def test_a_damaged_file_is_traced_afresh(disk_cache):
     assert program_cache._load(path) is not None  # rewritten whole
 
 
-def test_off_without_the_compilation_cache_or_with_host_callbacks(monkeypatch, tmp_path):
-    monkeypatch.delenv("JAX_COMPILATION_CACHE_DIR", raising=False)
-    assert program_cache.cache_directory() is None
-    monkeypatch.setenv("JAX_COMPILATION_CACHE_DIR", str(tmp_path))
-    monkeypatch.setenv("EQX_ON_ERROR", "raise")  # equinox's checks are host callbacks: nothing to keep
-    assert program_cache.cache_directory() is None
-    monkeypatch.setenv("EQX_ON_ERROR", "nan")
-    assert program_cache.cache_directory() == tmp_path / "jaxwalk-programs"
+def test_off_without_the_caches_or_with_host_callbacks(monkeypatch, tmp_path):
+    before = cache.directory()
+    try:
+        cache.configure(enabled=False)
+        assert program_cache.cache_directory() is None
+        cache.configure(tmp_path)
+        monkeypatch.setenv("EQX_ON_ERROR", "raise")  # equinox's checks are host callbacks: nothing to keep
+        assert program_cache.cache_directory() is None
+        monkeypatch.setenv("EQX_ON_ERROR", "nan")
+        assert program_cache.cache_directory() == tmp_path / "jaxwalk-programs"
+    finally:
+        cache.configure(before, enabled=before is not None)

@@ -11,8 +11,8 @@ with the same package versions.
 (``--dask local`` starts a :class:`distributed.LocalCluster` of one single-core
 worker per CPU core); at most a few tasks per worker thread are in flight, so
 memory stays flat on both sides however large the grid. The workers need
-jaxwalk installed; each compiles the analysis once (persistent compilation
-cache: ``JAX_COMPILATION_CACHE_DIR``). See docs/sweeps.md.
+jaxwalk installed; each compiles the analysis once (the program caches,
+:mod:`jaxwalk.cache`; ``--dask local`` workers inherit ``JAXWALK_CACHE_DIR``). See docs/sweeps.md.
 """
 
 from __future__ import annotations
@@ -122,7 +122,7 @@ def _on_dask(client, args, store, keys, block_starts) -> Iterator[tuple[int, dic
 
 def local_worker_env() -> dict[str, str]:
     """Environment of a ``--dask local`` worker: one XLA CPU device (one core) each,
-    as there is one worker per core; other settings (compilation cache,
+    as there is one worker per core; other settings (``JAXWALK_CACHE_DIR``,
     ``EQX_ON_ERROR``) are inherited."""
     flags = _DEVICE_FLAG.sub("", os.environ.get("XLA_FLAGS", "")).strip()
     return {"XLA_FLAGS": f"{flags} --xla_force_host_platform_device_count=1".strip()}
