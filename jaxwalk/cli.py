@@ -167,6 +167,10 @@ def add_plot(sub) -> None:
         help="hold a further grid axis at this index, repeatable (default: a third axis as small multiples, others at index 0)",
     )
     p.add_argument("--format", default="png", choices=("png", "pdf", "svg"), help="file format (default png)")
+    p.add_argument(
+        "--partial", action="store_true",
+        help="draw an unfinished or damaged dataset's computed points (the rest marked 'not computed') instead of refusing it",
+    )
     p.set_defaults(run=cmd_plot)
 
 
@@ -177,7 +181,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
     from jaxwalk.plot import plot_dataset
 
     paths = plot_dataset(
-        args.dataset, args.out, fmt=args.format, variables=args.vars, kinds=args.kind, x=args.x, y=args.y, at=args.at or None
+        args.dataset, args.out, fmt=args.format, partial=args.partial, variables=args.vars, kinds=args.kind, x=args.x, y=args.y, at=args.at or None
     )
     for path in paths:
         print(f"wrote {path}")
@@ -309,8 +313,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _fail(str(err), EXIT_USAGE)
     except OSError as err:  # the disk, not the input: still one line
         return _fail(f"{f'{err.filename}: ' if err.filename else ''}{err.strerror or err}", EXIT_FAILED)
-    except KeyboardInterrupt:
-        return _fail("interrupted", 130)
+    except KeyboardInterrupt as err:  # a sweep's says what it kept and how to continue
+        return _fail(str(err) or "interrupted", 130)
 
 
 def _fail(message: str, status: int) -> int:

@@ -29,6 +29,7 @@ class Status(enum.IntEnum):
     SOLVER_FAILED = 10
     KNEE_BUCKLED = 11
     NOT_DIFFERENTIABLE = 12
+    NOT_COMPUTED = 13  # a store's fill value: the point's chunk was never written
     IN_PROGRESS = 127  # internal: a step still running; never written to a dataset
 
 
@@ -47,11 +48,14 @@ STATUS_MEANINGS: dict[Status, str] = {
     Status.SOLVER_FAILED: "the ODE solver failed (step-size underflow or max steps)",
     Status.KNEE_BUCKLED: "a locked stance knee would have to pull to stay straight",
     Status.NOT_DIFFERENTIABLE: "gait found, but no derivative: a fold (I - J singular) or a defective dominant eigenvalue",
+    Status.NOT_COMPUTED: "not computed: this point's chunk was not written (an unfinished or damaged store)",
     Status.IN_PROGRESS: "internal: step in progress",
 }
 
 #: Codes that may appear in a dataset, in order.
 DATASET_STATUSES: tuple[Status, ...] = tuple(s for s in Status if s != Status.IN_PROGRESS)
+#: Codes an analysis may return (``NOT_COMPUTED`` is the store's, not a result).
+RESULT_STATUSES: tuple[Status, ...] = tuple(s for s in DATASET_STATUSES if s != Status.NOT_COMPUTED)
 
 
 def flag_attributes() -> dict[str, object]:

@@ -71,4 +71,6 @@ def figure_title(ds: xr.Dataset, name: str, fixed: dict[str, int]) -> str:
     head = f"{ds.attrs.get('name', '?')} ({ds.attrs.get('model', '?')}): {SYMBOLS.get(name, name)}, {variable_meaning(ds, name)}"
     if fixed:
         head += "\nat " + ", ".join(value_text(ds, a, i) for a, i in fixed.items())
+    if ds.attrs.get("partial"):  # an unfinished store drawn on request: said in every title
+        head += f"\n{ds.attrs['partial'].upper()}"
     return head

@@ -71,6 +71,7 @@ def plot_dataset(
     out_dir: str | os.PathLike | None = None,
     *,
     fmt: str = "png",
+    partial: bool = False,
     **choices,
 ) -> list[Path]:
     """Draw the figures of a sweep dataset and write one file per figure; return their paths.
@@ -82,6 +83,8 @@ def plot_dataset(
         dataset: the dataset, or the path of its zarr store.
         out_dir: where to write (created if needed); default: the store's directory.
         fmt: ``"png"``, ``"pdf"`` or ``"svg"``.
+        partial: draw an unfinished or damaged store's computed points (the rest
+            shown as "not computed", the title saying how much), instead of refusing it.
         **choices: ``variables``, ``kinds``, ``x``, ``y``, ``at``, ``max_panels`` of :func:`make_figures`.
 
     Raises:
@@ -95,7 +98,7 @@ def plot_dataset(
         if out_dir is None:
             raise PlotError("out_dir is required when plotting a dataset that is not read from a file")
     else:
-        ds = open_sweep(dataset)
+        ds = open_sweep(dataset, partial=partial)
         out_dir = Path(dataset).parent if out_dir is None else out_dir
     out = check_out_dir(out_dir)
     figures = make_figures(ds, **choices)

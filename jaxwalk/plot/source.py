@@ -18,6 +18,7 @@ import xarray as xr
 
 from jaxwalk.status import Status
 from jaxwalk.sweep.config import ConfigError
+from jaxwalk.sweep.integrity import check_complete
 
 #: The variables drawn by default, in this order, when the dataset has them with values.
 #: ``h_max`` (``[analysis] h_max``) and ``cost_of_transport`` are optional.
@@ -32,11 +33,16 @@ class PlotError(ConfigError):
     """
 
 
-def open_sweep(path: str | os.PathLike) -> xr.Dataset:
+def open_sweep(path: str | os.PathLike, *, partial: bool = False) -> xr.Dataset:
     """The sweep dataset at ``path`` (a zarr store), loaded into memory and checked.
+
+    A store with points not computed (an unfinished run) or damaged (a lost chunk
+    file) is refused, or with ``partial`` read with those points ``NOT_COMPUTED``
+    (:func:`jaxwalk.sweep.integrity.check_complete`).
 
     Raises:
         PlotError: ``path`` does not exist, is not a zarr store, or is not a jaxwalk sweep dataset.
+        IncompleteStore: points are missing (a ``ConfigError`` as ``PlotError``), without ``partial``.
     """
     path = Path(path)
     if not path.exists():
@@ -51,7 +57,7 @@ def open_sweep(path: str | os.PathLike) -> xr.Dataset:
         reason = reason if len(reason) <= 100 else reason[:97] + "..."
         raise PlotError(f"'{path}' is not a zarr store xarray can open ({reason})") from None
     check_sweep(ds, str(path))
-    return ds
+    return check_complete(ds, path, partial=partial)
 
 
 def check_sweep(ds: xr.Dataset, where: str = "dataset") -> xr.Dataset:

@@ -46,7 +46,7 @@ from typing import Callable, Mapping
 import numpy as np
 
 from jaxwalk.models import get_model
-from jaxwalk.status import DATASET_STATUSES, Status
+from jaxwalk.status import RESULT_STATUSES, Status
 from jaxwalk.sweep.config import DEFAULT_MAX_POINTS, ConfigError, SweepConfig, load_config
 
 Analyse = Callable[..., Mapping[str, np.ndarray]]
@@ -67,7 +67,7 @@ RESULT_KEYS = {
 _FLOATS = ("lambda_max", "eigenvalues", "fixed_point", "period", "step_length", "speed", "work", "cost_of_transport")
 #: Result arrays of the step-down test (``[analysis] h_max``), all of the grid's shape.
 STEP_DOWN_KEYS = ("h_max", "step_down_status", "h_failed")
-_VALID_CODES = np.array([int(s) for s in DATASET_STATUSES])
+_VALID_CODES = np.array([int(s) for s in RESULT_STATUSES])
 #: ``[analysis]`` keys and the ``NewtonOptions`` / ``SolverOptions`` fields they set.
 _NEWTON_FIELDS = {"newton_tol": "tol", "max_newton_iter": "max_iter"}
 _SOLVER_FIELDS = {"rtol": "rtol", "atol": "atol"}
@@ -147,13 +147,21 @@ def run_sweep(
 
         seeds = seed_lines(model, config.fixed, config.grid, config.continuation, config.seed_axis, options)
     starts = None if seeds is None else seeds.starts
-    with chunk_results(analyse, config, options, store, keys, dask=dask, starts=starts) as finished:  # connects first
-        bar = tqdm(total=config.n_points, initial=store.points_done, unit="pt", desc=config.name, disable=not progress)
-        with bar:
-            for index, results in finished:  # each block checked and on disk as soon as it is done
-                shape = tuple(r.stop - r.start for r in store.region(index))
-                store.write(index, check_results(results, shape, n_v, stability=config.stability, step_down=step_down))
-                bar.update(store.points_in(index))
+    if store.done:
+        print(
+            f"continuing the unfinished run in '{store.partial}': {len(store.done)} of {store.n_chunks} chunks "
+            f"({store.points_done} of {config.n_points} points) were done", file=sys.stderr,
+        )
+    try:
+        with chunk_results(analyse, config, options, store, keys, dask=dask, starts=starts) as finished:  # connects first
+            bar = tqdm(total=config.n_points, initial=store.points_done, unit="pt", desc=config.name, disable=not progress)
+            with bar:
+                for index, results in finished:  # each block checked and on disk as soon as it is done
+                    shape = tuple(r.stop - r.start for r in store.region(index))
+                    store.write(index, check_results(results, shape, n_v, stability=config.stability, step_down=step_down))
+                    bar.update(store.points_in(index))
+    except KeyboardInterrupt:
+        raise SweepInterrupted(interrupted_message(store, config.n_points, command)) from None
     if seeds is not None:
         from jaxwalk.seedline import dataset_attributes
 
@@ -167,6 +175,20 @@ def run_sweep(
         except Exception as err:  # a figure is a convenience; the dataset is written
             warnings.warn(f"figures not written: {' '.join(str(err).split())}", stacklevel=2)
     return target
+
+
+class SweepInterrupted(KeyboardInterrupt):
+    """Ctrl-C during a sweep; its message says what was kept and the command that continues."""
+
+
+def interrupted_message(store, n_points: int, command: str) -> str:
+    """``"interrupted: kept 3 of 12 chunks (768 of 3072 points) in '...'; continue with: ..."``."""
+    if not store.done or not store.partial.exists():
+        return "interrupted before the first chunk was done: nothing kept"
+    return (
+        f"interrupted: kept {len(store.done)} of {store.n_chunks} chunks ({store.points_done} of {n_points} points) "
+        f"in '{store.partial}'; continue with: {command}"
+    )
 
 
 def analysis_options(config: SweepConfig):

@@ -42,6 +42,7 @@ from typing import Iterator, Mapping
 
 import numpy as np
 
+from jaxwalk.status import Status
 from jaxwalk.sweep.config import ConfigError, GridAxis, SweepConfig, _human_bytes
 from jaxwalk.walker import Walker
 
@@ -59,13 +60,18 @@ def partial_path(target: Path) -> Path:
     return target.parent / f".{target.name}{PARTIAL_SUFFIX}"
 
 
+#: Status variables: their zarr fill value is ``NOT_COMPUTED``, so a chunk never
+#: written reads as "not computed", never as "ok" with NaN numbers.
+STATUS_KEYS = ("status", "step_down_status")
+
+
 def _template_results(keys: Mapping[str, bool], shape: tuple[int, ...], n_v: int) -> dict[str, np.ndarray]:
     """Results of the grid's shape as zero-stride views of one fill value (no memory)."""
     out = {}
     for key, trailing in keys.items():
         full = shape + ((n_v,) if trailing else ())
-        if key in ("status", "step_down_status"):
-            value = np.int8(0)
+        if key in STATUS_KEYS:
+            value = np.int8(Status.NOT_COMPUTED)
         elif key == "newton_iterations":
             value = np.int32(0)
         elif key == "eigenvalues":
@@ -310,7 +316,7 @@ class ChunkStore:
                 src = source[name]
                 zarr.create_array(
                     group.store, name=name, shape=var.shape, chunks=chunks[name], dtype=src.dtype,
-                    fill_value=src.fill_value, attributes=dict(src.attrs), dimension_names=src.metadata.dimension_names,
+                    fill_value=np.int8(Status.NOT_COMPUTED) if name in STATUS_KEYS else src.fill_value, attributes=dict(src.attrs), dimension_names=src.metadata.dimension_names,
                     compressors=src.compressors, serializer=src.serializer, filters=src.filters,
                 )
             (tmp / DONE_DIR).mkdir()
