@@ -40,3 +40,20 @@ from jaxwalk import cache as _cache  # noqa: E402
 _cache.configure(warn=False)  # an unusable directory is reported at the first compile
 
 __version__ = "0.1.0"
+
+# The notebook API (docs/python.md): configs in, xarray datasets out; bad input
+# raises ConfigError with the command line's one-line message. jaxwalk.sweep,
+# .simulate and .optimize are the packages of those commands, and calling one
+# runs it (jaxwalk.api); they are imported when first used.
+from jaxwalk.api import open_dataset  # noqa: E402
+from jaxwalk.sweep.config import ConfigError  # noqa: E402
+
+__all__ = ["ConfigError", "open_dataset", "optimize", "simulate", "sweep", "__version__"]
+
+
+def __getattr__(name: str):
+    if name in ("sweep", "simulate", "optimize"):
+        import importlib
+
+        return importlib.import_module(f"jaxwalk.{name}")
+    raise AttributeError(f"module 'jaxwalk' has no attribute {name!r}")

@@ -17,3 +17,8 @@ __all__ = [
     "sensitivity_program",
     "summary",
 ]
+
+# jaxwalk.optimize(config, out=None, ...) runs it from a notebook (jaxwalk.api.optimize).
+from jaxwalk._callable import make_callable as _make_callable  # noqa: E402
+
+_make_callable(__name__, "optimize")

@@ -43,3 +43,8 @@ from jaxwalk.simulate.start import (
     find_start_gait as find_start_gait,
     initial_state as initial_state,
 )
+
+# jaxwalk.simulate(config, out=None, ...) runs it from a notebook (jaxwalk.api.simulate).
+from jaxwalk._callable import make_callable as _make_callable  # noqa: E402
+
+_make_callable(__name__, "simulate")

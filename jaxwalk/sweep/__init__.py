@@ -15,3 +15,8 @@ from jaxwalk.sweep.config import (
     parse_config as parse_config,
 )
 from jaxwalk.sweep.runner import check_results as check_results, run_sweep as run_sweep
+
+# jaxwalk.sweep(config, out=None, ...) runs it from a notebook (jaxwalk.api.sweep).
+from jaxwalk._callable import make_callable as _make_callable  # noqa: E402
+
+_make_callable(__name__, "sweep")

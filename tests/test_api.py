@@ -1,0 +1,92 @@
+"""The notebook API: jaxwalk.sweep returns the dataset the CLI writes, from a path,
+TOML text or a dict, writing nothing without ``out``; bad input raises the one
+documented exception, jaxwalk.ConfigError, with the CLI's one-line message.
+With the fake analysis: nothing compiles."""
+
+from __future__ import annotations
+
+import tomllib
+
+import numpy as np
+import pytest
+import xarray as xr
+
+import jaxwalk
+import jaxwalk.grid
+from jaxwalk import cli
+
+SWEEP = """
+name = "grid2d"
+model = "compass"
+[grid]
+m_h = { start = 5.0, stop = 20.0, num = 7 }
+gamma = { start = 0.01, stop = 0.05, num = 5 }
+[analysis]
+continuation = "gamma"
+"""
+#: Attributes that say when and how a dataset was made, not what it holds.
+RUN_ATTRS = ("created", "command", "history", "config_source")
+
+
+def assert_same(a: xr.Dataset, b: xr.Dataset, run_attrs=RUN_ATTRS) -> None:
+    assert sorted(a.variables) == sorted(b.variables)
+    for name in a.variables:
+        x, y = a[name], b[name]
+        assert x.dims == y.dims and x.dtype == y.dtype and x.attrs == y.attrs, name
+        np.testing.assert_array_equal(x.values, y.values, err_msg=name)
+    strip = lambda d: {k: v for k, v in d.attrs.items() if k not in run_attrs}
+    assert strip(a) == strip(b)
+
+
+@pytest.fixture
+def cli_store(tmp_path, monkeypatch, fake_analysis):
+    monkeypatch.setattr(jaxwalk.grid, "analyse_grid", fake_analysis(fail_above=15.0))
+    (tmp_path / "sweep.toml").write_text(SWEEP)
+    assert cli.main(["sweep", str(tmp_path / "sweep.toml"), "--out", str(tmp_path / "cli"), "--no-plot", "--no-progress"]) == 0
+    with xr.open_dataset(tmp_path / "cli" / "grid2d.zarr", engine="zarr") as ds:
+        return ds.load()
+
+
+@pytest.mark.parametrize("form", ["path", "text", "dict"])
+def test_sweep_returns_the_cli_store(cli_store, tmp_path, monkeypatch, fake_analysis, form):
+    config = {"path": tmp_path / "sweep.toml", "text": SWEEP, "dict": tomllib.loads(SWEEP)}[form]
+    monkeypatch.chdir(tmp_path / "cli")
+    before = sorted(p.name for p in tmp_path.rglob("*"))
+    ds = jaxwalk.sweep(config, analyse=fake_analysis(fail_above=15.0), progress=False)
+    assert isinstance(ds, xr.Dataset)
+    # A dict has no TOML text to record (the resolved config is recorded all the same).
+    assert_same(ds, cli_store, RUN_ATTRS + (("config_toml",) if form == "dict" else ()))
+    assert sorted(p.name for p in tmp_path.rglob("*")) == before  # nothing written without out
+
+
+def test_sweep_writes_only_to_out(cli_store, tmp_path, fake_analysis):
+    ds = jaxwalk.sweep(SWEEP, tmp_path / "api", analyse=fake_analysis(fail_above=15.0), progress=False)
+    assert sorted(p.name for p in (tmp_path / "api").iterdir()) == ["grid2d.zarr"]
+    assert_same(ds, cli_store)
+    assert_same(jaxwalk.open_dataset(tmp_path / "api" / "grid2d.zarr"), cli_store)
+
+
+BAD = [
+    ('name = "x"\nmodel = "nomodel"\n[grid]\ngamma = { start = 0.0, stop = 1.0, num = 3 }\n', "sweep"),
+    ('name = "x"\nmodel = "simplest"\n[grid]\ngama = { start = 0.0, stop = 1.0, num = 3 }\n', "sweep"),
+    ('name = "x"\nmodel = "simplest"\n[simulate]\nsteps = 0\n', "simulate"),
+    ('name = "x"\nmodel = "simplest"\n', "optimize"),
+]
+
+
+@pytest.mark.parametrize("text,command", BAD)
+def test_bad_input_raises_config_error_with_the_cli_message(tmp_path, capsys, text, command):
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    extra = ["--steps", "2"] if command == "simulate" and "steps" not in text else []
+    assert cli.main([command, str(path), "--out", str(tmp_path / "out"), *extra]) == 2
+    line = capsys.readouterr().err.strip()
+    with pytest.raises(jaxwalk.ConfigError) as err:
+        getattr(jaxwalk, command)(path)
+    assert line == f"jaxwalk: error: {err.value}"
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_config_of_another_type_is_refused():
+    with pytest.raises(jaxwalk.ConfigError, match="expected a path, TOML text or a dict"):
+        jaxwalk.sweep(42)
