@@ -81,6 +81,18 @@ MIN_ROWS_PER_THREAD = 32
 MIN_LINES_PER_THREAD = 2
 
 
+#: Configurations (or lines) one worker thread advances together on the flat
+#: step engine, every model alike: there a batch's cost is set by its average
+#: lane, not by the slowest at every phase boundary (jaxwalk.flatstep).
+FLAT_SUB_BATCH = 64
+
+
+def sub_batch_size(model: Walker, solver: SolverOptions) -> int:
+    """``lax.map`` sub-batch size: :data:`FLAT_SUB_BATCH` on the flat engine,
+    else the model's ``lockstep_batch`` (the nested engine's per-model setting)."""
+    return FLAT_SUB_BATCH if solver.engine == "flat" else model.lockstep_batch
+
+
 def _in_sub_batches(fn, params, sub_batch: int):
     """``vmap(fn)(params)`` over the leading axis, computed as ``lax.map`` over
     sub-batches of ``sub_batch`` rows (the last one padded with copies of the last row)."""
@@ -100,7 +112,7 @@ def _in_sub_batches(fn, params, sub_batch: int):
 
 @functools.lru_cache(maxsize=None)
 def _independent_program(model: Walker, solver: SolverOptions, newton: NewtonOptions):
-    """Gait searches from the model's guess, ``model.lockstep_batch`` configurations
+    """Gait searches from the model's guess, :func:`sub_batch_size` configurations
     at a time: a vmapped while loop runs until its slowest element is done, so
     each sub-batch of neighbouring grid points (similar iteration and step
     counts) stops on its own."""
@@ -109,7 +121,7 @@ def _independent_program(model: Walker, solver: SolverOptions, newton: NewtonOpt
         return find_gait(model, p, model.initial_guess(p), solver, newton)
 
     # Per configuration the same computation as continuation.gaits_independent.
-    program = jax.jit(lambda p: _in_sub_batches(one, dict(p), model.lockstep_batch))
+    program = jax.jit(lambda p: _in_sub_batches(one, dict(p), sub_batch_size(model, solver)))
     program_cache.register(program, "independent", model, solver, newton)
     return program
 
@@ -127,11 +139,11 @@ def _continuation_program(model: Walker, solver: SolverOptions, newton: NewtonOp
         v0, have = p.pop("__v0__"), p.pop("__v0_ok__")
         return continue_along(model, p, order, restart, solver, newton, v0, have)
 
-    # Lines in sub-batches of model.lockstep_batch, as configurations in
+    # Lines in sub-batches of sub_batch_size(), as configurations in
     # _independent_program: a line waits at every point for the slowest line of
     # its sub-batch (the flat-foot walker's hardest map quarter ran 6x faster
     # at 2 lines per sub-batch than at 8, 13x at 1: benchmarks/README.md).
-    program = jax.jit(lambda rows: _in_sub_batches(line, dict(rows), model.lockstep_batch))
+    program = jax.jit(lambda rows: _in_sub_batches(line, dict(rows), sub_batch_size(model, solver)))
     program_cache.register(program, "continuation", model, solver, newton)
     return program
 
@@ -205,8 +217,8 @@ def _step_down_program(model: Walker, solver: SolverOptions, step_down: StepDown
         v = p.pop("__v_star__")
         return h_max(model, p, v, step_down, solver)
 
-    # Every drop of every step in lockstep across a sub-batch: model.lockstep_batch.
-    program = jax.jit(lambda rows: _in_sub_batches(one, dict(rows), model.lockstep_batch))
+    # Every drop of every step in lockstep across a sub-batch: sub_batch_size().
+    program = jax.jit(lambda rows: _in_sub_batches(one, dict(rows), sub_batch_size(model, solver)))
     program_cache.register(program, "step_down", model, solver, step_down)
     return program
 

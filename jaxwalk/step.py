@@ -20,68 +20,13 @@ import diffrax
 import jax
 import jax.numpy as jnp
 
+from jaxwalk.flatstep import run_step_flat
 from jaxwalk.rootfind import BracketedNewton
 from jaxwalk.status import Status
+from jaxwalk.stepbase import PhaseEnd, SolverOptions, StepResult, close_phase  # noqa: F401 (re-exported)
 from jaxwalk.walker import Walker
 
 Array = jax.Array
-
-
-@dataclasses.dataclass(frozen=True)
-class SolverOptions:
-    """Static integration settings (hashable: part of the jit cache key).
-
-    Attributes:
-        rtol, atol: step-size controller tolerances.
-        event_tol: tolerance of the event-time root finder (model time units).
-        max_solver_steps: ODE steps allowed per phase before ``SOLVER_FAILED``.
-        max_events: events allowed per step before ``TOO_MANY_EVENTS``.
-        phase_time_limit: longest phase, in units of the model's ``time_scale``,
-            before ``TIMEOUT``.
-        start_guard_margin: a guard below ``-start_guard_margin`` when a phase
-            starts is an event at once (see :func:`run_step`).
-        solver: ``"dopri8"`` (default; 7th-order dense output keeps event times
-            accurate at loose steps) or ``"tsit5"``.
-    """
-
-    rtol: float = 1e-10
-    atol: float = 1e-10
-    event_tol: float = 1e-13
-    max_solver_steps: int = 2048
-    max_events: int = 16
-    phase_time_limit: float = 12.0
-    start_guard_margin: float = 1e-9
-    solver: str = "dopri8"
-
-    def make_solver(self):
-        return {"dopri8": diffrax.Dopri8, "tsit5": diffrax.Tsit5, "dopri5": diffrax.Dopri5}[self.solver]()
-
-
-class StepResult(NamedTuple):
-    """Outcome of :func:`run_step`; every leaf carries the batch shape under vmap.
-
-    Attributes:
-        y: ``(2 n_q,)`` state at the start of the next step (legs swapped), or the
-            state where the step stopped.
-        ctx: ``(n_ctx,)`` discrete state with ``y``.
-        phase: int32 phase where the loop stopped.
-        time: step duration (model time units).
-        length: distance the stance foot moved (model length units).
-        status: int8 :class:`~jaxwalk.status.Status`.
-        n_events: number of events in the step.
-        work: work done by the walker's actuators over the step (model energy
-            units; 0 for passive walkers), summed phase by phase with
-            :meth:`~jaxwalk.walker.Walker.actuator_work`.
-    """
-
-    y: Array
-    ctx: Array
-    phase: Array
-    time: Array
-    length: Array
-    status: Array
-    n_events: Array
-    work: Array
 
 
 def solve_phase(model: Walker, params, y, phase, ctx, t0, opts: SolverOptions, dense: bool = False):
@@ -125,37 +70,6 @@ def _solve_phase(model: Walker, params, y, phase, ctx, t0, opts: SolverOptions):
     return sol.ts[-1], sol.ys[-1], sol.result
 
 
-class PhaseEnd(NamedTuple):
-    """How a phase ended (:func:`end_phase`).
-
-    Attributes:
-        t_event: event time (the phase's start time where a guard was already past).
-        y_event: ``(2 n_q,)`` state at the event, before the reset.
-        guard: int32 index of the smallest guard at the event (the one that fired).
-        event_happened: bool, the phase ended with an event (not the time limit
-            or a solver failure).
-        y_next, phase_next, ctx_next: the state after the reset; the state at the
-            event where there was no event or the reset is not finite.
-        shift: distance the stance foot moved in the reset (0 without one).
-        step_done: bool, the reset ended the step.
-        status: int8 :class:`~jaxwalk.status.Status` after the event
-            (``IN_PROGRESS`` while the step goes on).
-        n_events: events in the step, this one included.
-    """
-
-    t_event: Array
-    y_event: Array
-    guard: Array
-    event_happened: Array
-    y_next: Array
-    phase_next: Array
-    ctx_next: Array
-    shift: Array
-    step_done: Array
-    status: Array
-    n_events: Array
-
-
 def end_phase(model: Walker, params, t0, y0, phase, ctx, solved, n_events, opts: SolverOptions) -> PhaseEnd:
     """The event that ended a phase started at ``(t0, y0, phase, ctx)``, the model's
     reset and the status rules: the body of :func:`run_step`'s loop after the solve,
@@ -165,7 +79,6 @@ def end_phase(model: Walker, params, t0, y0, phase, ctx, solved, n_events, opts:
         solved: ``(t_event, y_event, result)`` of the phase's ``diffeqsolve`` (:func:`_solve_phase`).
         n_events: events in the step before this one.
     """
-    in_progress = jnp.asarray(Status.IN_PROGRESS, jnp.int8)
     t_event, y_event, result = solved
     # A guard already negative when a phase starts never "crosses" zero, and
     # while it is the smallest it hides every other guard: treat it as an
@@ -176,34 +89,7 @@ def end_phase(model: Walker, params, t0, y0, phase, ctx, solved, n_events, opts:
     t_event = jnp.where(at_start, t0, t_event)
     y_event = jnp.where(at_start, y0, y_event)
     result = diffrax.RESULTS.where(at_start, diffrax.RESULTS.event_occurred, result)
-    guards = model.guard_values(t_event, y_event, params, phase, ctx)
-    which = jnp.argmin(guards)
-    tr = model.on_event(which, t_event, y_event, params, phase, ctx)
-    step_status = jnp.where(tr.step_done & (tr.status == in_progress), jnp.int8(Status.OK), tr.status)
-    n_events = n_events + 1
-    # Solver outcome overrides the model's reading of the event.
-    event_happened = result == diffrax.RESULTS.event_occurred
-    reached_t1 = result == diffrax.RESULTS.successful
-    new_status = jnp.where(event_happened, step_status, jnp.where(reached_t1, jnp.int8(Status.TIMEOUT), jnp.int8(Status.SOLVER_FAILED)))
-    finite = jnp.all(jnp.isfinite(tr.y)) & jnp.isfinite(t_event)
-    new_status = jnp.where(finite, new_status, jnp.int8(Status.NONFINITE))
-    new_status = jnp.where(
-        (new_status == in_progress) & (n_events >= opts.max_events), jnp.int8(Status.TOO_MANY_EVENTS), new_status
-    )
-    keep = event_happened & finite
-    return PhaseEnd(
-        t_event=t_event,
-        y_event=y_event,
-        guard=which.astype(jnp.int32),
-        event_happened=event_happened,
-        y_next=jnp.where(keep, tr.y, y_event),
-        phase_next=jnp.where(keep, tr.phase, phase).astype(jnp.int32),
-        ctx_next=jnp.where(keep, tr.ctx, ctx),
-        shift=jnp.where(keep, tr.shift, 0.0),
-        step_done=tr.step_done & keep,
-        status=new_status.astype(jnp.int8),
-        n_events=n_events,
-    )
+    return close_phase(model, params, t_event, y_event, result, phase, ctx, n_events, opts)
 
 
 def run_step(model: Walker, params, y0: Array, phase0: Array, ctx0: Array, opts: SolverOptions = SolverOptions()) -> StepResult:
@@ -213,8 +99,13 @@ def run_step(model: Walker, params, y0: Array, phase0: Array, ctx0: Array, opts:
         model: the walker (static).
         params: dict of scalar parameters.
         y0: ``(2 n_q,)`` initial state; ``phase0`` int32; ``ctx0`` ``(n_ctx,)``.
-        opts: static solver settings.
+        opts: static solver settings; ``opts.engine == "flat"`` runs the flat
+            engine (:func:`jaxwalk.flatstep.run_step_flat`) instead.
     """
+    if opts.engine == "flat":
+        return run_step_flat(model, params, y0, phase0, ctx0, opts)
+    if opts.engine != "nested":
+        raise ValueError(f"SolverOptions.engine must be 'nested' or 'flat', got {opts.engine!r}")
     in_progress = jnp.asarray(Status.IN_PROGRESS, jnp.int8)
 
     def cond(carry):
