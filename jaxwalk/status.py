@@ -29,6 +29,9 @@ class Status(enum.IntEnum):
     SOLVER_FAILED = 10
     KNEE_BUCKLED = 11
     NOT_DIFFERENTIABLE = 12
+    # 13, 14 and 18, 19 are reserved by other branches (not computed, slipping; global stability).
+    NO_PERIODIC_ATTRACTOR = 15
+    CYCLE_NOT_FOUND = 16
     IN_PROGRESS = 127  # internal: a step still running; never written to a dataset
 
 
@@ -47,6 +50,11 @@ STATUS_MEANINGS: dict[Status, str] = {
     Status.SOLVER_FAILED: "the ODE solver failed (step-size underflow or max steps)",
     Status.KNEE_BUCKLED: "a locked stance knee would have to pull to stay straight",
     Status.NOT_DIFFERENTIABLE: "gait found, but no derivative: a fold (I - J singular) or a defective dominant eigenvalue",
+    Status.NO_PERIODIC_ATTRACTOR: (
+        "no periodic attractor: walked from the unstable gait's neighbourhood, the walker kept walking "
+        "without repeating at any tested period (quasi-periodic, chaotic, longer period, or too slow to settle)"
+    ),
+    Status.CYCLE_NOT_FOUND: "the walk repeated, but Newton on the k-step map found no stable genuine period-k cycle there",
     Status.IN_PROGRESS: "internal: step in progress",
 }
 
