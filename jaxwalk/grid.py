@@ -22,6 +22,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxwalk import program_cache
+from jaxwalk.attractor import AttractorOptions
 from jaxwalk.continuation import continue_along, seed_index, visiting_order
 from jaxwalk.gait import Gait, NewtonOptions, find_gait
 from jaxwalk.step import SolverOptions
@@ -43,12 +44,15 @@ class AnalysisOptions:
             the worker threads (``jaxwalk.workers``).
         step_down: settings of the global-stability test (the paper's h_m);
             ``None`` skips it.
+        attractors: settings of the attractor search (:mod:`jaxwalk.attractor`);
+            ``None`` skips it.
     """
 
     solver: SolverOptions = SolverOptions()
     newton: NewtonOptions = NewtonOptions()
     chunk_size: int = 256
     step_down: StepDownOptions | None = None
+    attractors: AttractorOptions | None = None
 
 
 def parameter_grid(model: Walker, fixed: Mapping[str, float], grid: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -381,7 +385,10 @@ def analyse_chunk(
         ``options.step_down`` also ``h_max`` (NaN where no gait was found),
         ``step_down_status`` (int8, the first failed drop's status, ``OK`` if none
         failed up to the limit; where no gait was found, the gait's status) and
-        ``h_failed`` (that drop's height).
+        ``h_failed`` (that drop's height); with ``options.attractors`` also the
+        attractor's ``attractor_status``, ``attractor_period``, ``attractor_lambda_max``,
+        ``attractor_rate``, ``attractor_multipliers`` and ``attractor_points``
+        (:func:`jaxwalk.attractor.grid_attractors`).
     """
     params = parameter_grid(model, fixed, grid)
     axes = list(grid)
@@ -429,4 +436,8 @@ def analyse_chunk(
         no_gait = out["status"] != 0  # no h_max without a gait: carry the gait's status
         out["step_down_status"] = np.where(no_gait, out["status"], drops.first_failure.astype(np.int8).reshape(shape))
         out["h_failed"] = drops.failed_at.reshape(shape)
+    if options.attractors is not None:
+        from jaxwalk.attractor import grid_attractors
+
+        out.update(grid_attractors(model, params, out, options))
     return out

@@ -30,6 +30,8 @@ class Status(enum.IntEnum):
     KNEE_BUCKLED = 11
     NOT_DIFFERENTIABLE = 12
     NOT_COMPUTED = 13  # a store's fill value: the point's chunk was never written
+    NO_PERIODIC_ATTRACTOR = 15
+    CYCLE_NOT_FOUND = 16
     IN_PROGRESS = 127  # internal: a step still running; never written to a dataset
 
 
@@ -49,6 +51,11 @@ STATUS_MEANINGS: dict[Status, str] = {
     Status.KNEE_BUCKLED: "a locked stance knee would have to pull to stay straight",
     Status.NOT_DIFFERENTIABLE: "gait found, but no derivative: a fold (I - J singular) or a defective dominant eigenvalue",
     Status.NOT_COMPUTED: "not computed: this point's chunk was not written (an unfinished or damaged store)",
+    Status.NO_PERIODIC_ATTRACTOR: (
+        "no periodic attractor: walked from the unstable gait's neighbourhood, the walker kept walking "
+        "without repeating at any tested period (quasi-periodic, chaotic, longer period, or too slow to settle)"
+    ),
+    Status.CYCLE_NOT_FOUND: "the walk repeated, but Newton on the k-step map found no stable genuine period-k cycle there",
     Status.IN_PROGRESS: "internal: step in progress",
 }
 
