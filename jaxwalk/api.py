@@ -88,7 +88,7 @@ def sweep(
 
 def simulate(
     config, out: str | os.PathLike | None = None, *, steps: int | None = None, drop: float | None = None,
-    plot: bool = False, gif: bool = False, overwrite: bool = False,
+    plot: bool = False, gif: bool = False, overwrite: bool = False, progress: bool = True,
 ) -> xr.Dataset:
     """Walk ``steps`` steps from the periodic gait (``jaxwalk simulate``) and return the
     trajectory dataset (docs/simulate.md); figures and the GIF only with ``out``.
@@ -107,7 +107,7 @@ def simulate(
     with tempfile.TemporaryDirectory(prefix="jaxwalk-simulate-") as tmp:
         paths, _ = run_simulation(
             cfg, tmp if out is None else out, plot=plot, gif=gif, overwrite=overwrite or out is None,
-            command=f"jaxwalk.simulate({cfg.name!r})",
+            command=f"jaxwalk.simulate({cfg.name!r})", progress=progress,
         )
         return _loaded(paths["dataset"])
 

@@ -60,6 +60,10 @@ def add_sweep(sub) -> None:
     p.add_argument("config", metavar="CONFIG.toml", help="sweep config (see docs/sweeps.md)")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory; the dataset is DIR/<name>.zarr")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument(
+        "--dry-run", action="store_true",
+        help="compute nothing: print the points, chunks, store size, and the time a previous run of the model suggests",
+    )
     p.add_argument("--no-plot", action="store_true", help="no figures DIR/<name>_<variable>_<kind>.png (jaxwalk plot)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing DIR/<name>.zarr")
     p.add_argument("--max-points", type=_positive_int, default=None, metavar="N", help="largest grid accepted (default 10,000,000)")
@@ -80,6 +84,11 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     from jaxwalk.sweep.runner import run_sweep
 
     config = load_config(args.config, max_points=args.max_points or DEFAULT_MAX_POINTS)
+    if args.dry_run:
+        from jaxwalk.sweep.runner import dry_run
+
+        print(dry_run(config, args.out, chunk_size=args.chunk_size, overwrite=args.overwrite))
+        return EXIT_OK
     path = run_sweep(  # checks --out before computing anything
         config,
         args.out,
@@ -120,6 +129,7 @@ def add_simulate(sub) -> None:
         "--drop", type=float, default=None, metavar="H",
         help="step-down of height H (vertical, model length units) at the first touchdown (overrides [simulate] drop)",
     )
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--no-gif", action="store_true", help="no animation DIR/<name>_walk.gif")
     p.add_argument("--no-plot", action="store_true", help="no figures DIR/<name>_stick.png, DIR/<name>_timeseries.png")
     p.add_argument("--overwrite", action="store_true", help="replace existing outputs of the same name")
@@ -135,7 +145,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
     config = load_simulate_config(args.config, steps=args.steps, drop=args.drop)
     paths, traj = run_simulation(  # checks --out before computing anything
-        config, args.out, plot=not args.no_plot, gif=not args.no_gif, overwrite=args.overwrite, command=args.command_line
+        config, args.out, plot=not args.no_plot, gif=not args.no_gif, overwrite=args.overwrite, command=args.command_line,
+        progress=not args.no_progress,
     )
     outcome = f"{traj.steps_completed} of {config.steps} steps"
     if traj.status != 0:
@@ -199,6 +210,7 @@ def add_optimize(sub) -> None:
     p.add_argument("--out", required=True, metavar="DIR", help="output directory; the path is DIR/<name>.zarr, the figure DIR/<name>.png")
     p.add_argument("--heatmap", default=None, metavar="DATASET", help="a sweep dataset (zarr) to draw the paths over, instead of computing [heatmap]")
     p.add_argument("--no-heatmap", action="store_true", help="no background grid")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--no-plot", action="store_true", help="no figure DIR/<name>.png")
     p.add_argument("--overwrite", action="store_true", help="replace existing outputs of the same name")
     p.set_defaults(run=cmd_optimize)
@@ -213,7 +225,7 @@ def cmd_optimize(args: argparse.Namespace) -> int:
     config = load_optimize_config(args.config)
     path, ds = run_optimize(  # checks --out (and --heatmap) before computing anything
         config, args.out, heatmap_path=args.heatmap, heatmap=not args.no_heatmap, plot=not args.no_plot,
-        overwrite=args.overwrite, command=args.command_line,
+        overwrite=args.overwrite, command=args.command_line, progress=not args.no_progress,
     )
     print(f"wrote {path}: {summary(ds)}")
     return EXIT_OK

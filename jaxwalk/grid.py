@@ -83,6 +83,11 @@ def parameter_grid(model: Walker, fixed: Mapping[str, float], grid: Mapping[str,
 #: Continuation lines are heavier: two per thread.
 MIN_ROWS_PER_THREAD = 32
 MIN_LINES_PER_THREAD = 2
+#: Continuation lines run padded to a multiple of this many points (copies of the
+#: last point visited, visited after the real ones: the real walk is unchanged),
+#: so grids whose lines fall in one class share one compiled program and a sweep
+#: of a new size there compiles nothing. Lines of 64 (the flat-foot maps) pay nothing.
+LINE_LENGTH_QUANTUM = 64
 
 
 #: Configurations (or lines) one worker thread advances together on the flat
@@ -407,7 +412,8 @@ def analyse_chunk(
         rows = {n: v.reshape(-1, len(values)) for n, v in moved.items()}
         if starts is not None:
             starts = np.asarray(starts, np.float64).reshape(-1, len(model.section_names))
-        gaits = run_lines(model, rows, seed, options, starts, progress)
+        length = -(-len(values) // LINE_LENGTH_QUANTUM) * LINE_LENGTH_QUANTUM
+        gaits = run_lines(model, rows, seed, options, starts, progress, length=length)
 
         def unflatten(x):
             x = x.reshape(moved_shape + x.shape[2:])

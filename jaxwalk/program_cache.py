@@ -27,6 +27,7 @@ import hashlib
 import importlib.metadata
 import inspect
 import os
+import sys
 import tempfile
 import warnings
 from pathlib import Path
@@ -137,6 +138,24 @@ def _save(path: Path, exported) -> None:
         warnings.warn(f"traced program not kept in the cache ({' '.join(str(err).split())})", cache.CacheWarning, stacklevel=3)
 
 
+#: What each registered kind of program is, for the line a compile prints.
+_WHAT = {"independent": "gait search", "continuation": "gait search along continuation lines", "step_down": "step-down test"}
+
+
+def announce(program) -> None:
+    """One line on stderr before a registered program is traced and compiled, so a
+    wait of seconds to minutes has a reason (kept clear of a running progress bar)."""
+    identity = _identities.get(program)
+    if identity is None:
+        return
+    kind, model_id = identity[0], identity[1]
+    model_name = model_id.split(":")[1]
+    when = "first run; cached afterwards" if cache_directory() is not None else "caches off: on every run"
+    from tqdm.auto import tqdm
+
+    tqdm.write(f"jaxwalk: compiling the {model_name} {_WHAT.get(kind, kind)} ({when})", file=sys.stderr)
+
+
 def lower(program, args):
     """``program`` lowered for ``args``: from the disk cache when it holds it, else
     traced (and, with the cache on, exported and saved, then run as exported)."""
@@ -145,11 +164,13 @@ def lower(program, args):
     key = None if root is None else program_key(program, args)
     if key is None:
         counts["traced"] += 1
+        announce(program)
         return program.lower(args)
     path = root / f"{key}.jaxexport"
     exported = _load(path)
     if exported is None:
         counts["traced"] += 1
+        announce(program)
         try:
             exported = export.export(program)(args)
         except Exception:  # something the exporter cannot hold: the plain path

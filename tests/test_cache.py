@@ -77,18 +77,35 @@ def two_runs(tmp_path_factory):
     config = tmp / "small.toml"
     config.write_text(textwrap.dedent(SWEEP.format(num=8)))
     env = {"XDG_CACHE_HOME": str(tmp / "xdg")}
-    runs = [run_probe("sweep", str(config), "--out", str(tmp / f"run{i}"), "--no-plot", "--no-progress", env=env)[0] for i in (1, 2)]
+    runs = [run_probe("sweep", str(config), "--out", str(tmp / f"run{i}"), "--no-plot", "--no-progress", env=env) for i in (1, 2)]
     return tmp, runs
 
 
 @pytest.mark.slow
 def test_a_rerun_compiles_and_traces_nothing_and_is_bit_identical(two_runs):
-    tmp, (first, second) = two_runs
+    tmp, ((first, first_err), (second, second_err)) = two_runs
     assert first["status"] == second["status"] == 0
+    compiling = "jaxwalk: compiling the simplest gait search along continuation lines (first run; cached afterwards)"
+    assert compiling in first_err and "compiling" not in second_err  # a wait has its reason, a rerun none
     assert first["compiled"] > 0 and first["traced"] > 0  # the counters see a cold run
     assert second["compiled"] == 0 and second["traced"] == 0 and second["loaded"] == first["traced"]
     assert (tmp / "xdg" / "jaxwalk" / cache.PROGRAMS).is_dir()  # in the user's cache directory
     assert_same_store(tmp / "run1" / "small.zarr", tmp / "run2" / "small.zarr")
+
+
+@pytest.mark.slow
+def test_a_sweep_of_a_new_size_compiles_nothing(two_runs):
+    """Continuation lines run padded to a multiple of 64 points (jaxwalk.grid):
+    after the 8-point sweep, one of 50 points reuses its programs."""
+    tmp, _ = two_runs
+    config = tmp / "resized.toml"
+    config.write_text(textwrap.dedent(SWEEP.format(num=50)))
+    report, stderr = run_probe(
+        "sweep", str(config), "--out", str(tmp / "resized"), "--no-plot", "--no-progress", env={"XDG_CACHE_HOME": str(tmp / "xdg")}
+    )
+    assert report["status"] == 0 and report["compiled"] == 0 and report["traced"] == 0, stderr[-2000:]
+    with xr.open_dataset(tmp / "resized" / "small.zarr", engine="zarr") as ds:
+        assert ds.sizes["gamma"] == 50 and (ds.status.values == 0).all()
 
 
 @pytest.mark.slow
@@ -105,6 +122,25 @@ def test_an_unusable_cache_directory_warns_and_computes(tmp_path):
     assert len(warnings) == 1 and "a_file" in warnings[0], stderr[-2000:]
     with xr.open_dataset(tmp_path / "out" / "small.zarr", engine="zarr") as ds:
         assert (ds.status.values == 0).all() and np.isfinite(ds.period.values).all()
+
+
+@pytest.mark.slow
+def test_dry_run_estimates_from_the_previous_run(two_runs):
+    tmp, _ = two_runs
+    config = tmp / "bigger.toml"
+    config.write_text(textwrap.dedent(SWEEP.format(num=300)))
+    env = {k: v for k, v in os.environ.items() if k not in ("JAXWALK_CACHE_DIR", "JAX_COMPILATION_CACHE_DIR")}
+    env.update(XDG_CACHE_HOME=str(tmp / "xdg"), PYTHONPATH=str(ROOT))
+    proc = subprocess.run(
+        [sys.executable, "-m", "jaxwalk", "sweep", str(config), "--out", str(tmp / "big"), "--dry-run"],
+        cwd=ROOT, env=env, capture_output=True, text=True, timeout=120,
+    )
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.splitlines()
+    assert lines[0] == "small: 300 points (300, simplest model) in 1 chunk of 300"  # whole continuation lines
+    assert lines[1].startswith(f"store: {tmp / 'big' / 'small.zarr'}, up to ")
+    assert lines[2].startswith("time: about ") and "a previous simplest run" in lines[2] and "programs cached" in lines[2]
+    assert not (tmp / "big").exists()  # nothing written
 
 
 def test_directory_follows_the_environment(monkeypatch, tmp_path):

@@ -325,3 +325,44 @@ def test_command_line_writes_figures(tmp_path, store, run_cli):
     assert (tmp_path / "figs" / "syn_lambda_max_heatmap.png").is_file()
     bad = run_cli("plot", str(store), "--vars", "nope")
     assert bad.returncode == 2 and len(bad.stderr.splitlines()) == 1 and "Traceback" not in bad.stderr
+
+
+# ---------------------------------------------------------------- figures a scientist would publish
+
+
+def test_lambda_max_scale_gives_the_stable_range_half_the_colours():
+    from matplotlib.colors import TwoSlopeNorm
+
+    ds = synthetic(GRID_2D, lam=(0.3, 3.4))  # one far-unstable corner must not flatten the stable range
+    fig = heatmap_figure(ds, "lambda_max", choose_layout(ds, "heatmap"))
+    (mesh,) = [c for a in fig.axes if a.get_label() != "<colorbar>" for c in a.collections if c.get_array() is not None][:1]
+    norm = mesh.norm
+    assert isinstance(norm, TwoSlopeNorm) and norm.vcenter == 1.0
+    top = float(ds.lambda_max.max())
+    assert norm(0.3) == pytest.approx(0.0) and norm(1.0) == pytest.approx(0.5) and norm(top) == pytest.approx(1.0)
+    (bar,) = [a for a in fig.axes if a.get_label() == "<colorbar>"]
+    assert "1 at mid-scale" in bar.get_ylabel()  # the scale is named on the bar
+    assert heatmap_figure(synthetic(GRID_2D, lam=(0.3, 0.9)), "lambda_max", choose_layout(ds, "heatmap")).axes[0].collections[0].norm.__class__.__name__ == "Normalize"
+
+
+def test_title_names_the_fixed_parameters():
+    ds = synthetic(GRID_1D)
+    ds.attrs["fixed_parameters"] = '{"m": 5.0, "m_h": 10.0, "a": 0.6}'  # compass defaults: m 5, m_h 10, a 0.5
+    fig = lines_figure(ds, "lambda_max", choose_layout(ds, "lines"))
+    assert "fixed: a = 0.6 m; others at the model's defaults" in fig.get_suptitle()
+
+
+def test_curves_are_readable_on_white_and_failure_rows_named():
+    from matplotlib.colors import to_rgb
+
+    ds = synthetic(GRID_2D, failures=three_failures)
+    fig = lines_figure(ds, "lambda_max", choose_layout(ds, "lines", x="gamma", y="m_h"))
+    ax = fig.axes[0]
+    for line in ax.get_lines():
+        if line.get_linestyle() == "-":
+            lin = [c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4 for c in to_rgb(line.get_color())]
+            luminance = 0.2126 * lin[0] + 0.7152 * lin[1] + 0.0722 * lin[2]
+            assert 1.05 / (luminance + 0.05) >= 3.0  # WCAG contrast on white, for graphics
+    strip = fig.axes[1]
+    labels = [t.get_text() for t in strip.get_yticklabels()]
+    assert labels == [f"{v:.3g}" for v in ds.m_h.values]  # one row per curve, named by its value

@@ -221,7 +221,8 @@ def test_h_max_dataset(tmp_path, fake_analysis):
     assert ds["step_down_status"].dtype == np.int8
     assert ds["h_max"].dtype == np.float64 and ds["h_failed"].dtype == np.float64
     h = ds["h_max"]
-    assert h.attrs["long_name"] == "largest survived step-down (every smaller tested drop survived)"
+    assert h.attrs["description"] == "largest survived step-down (every smaller tested drop survived)"
+    assert h.attrs["long_name"] == "largest survived step-down"  # short: xarray's plots label axes with it
     assert h.attrs["units"] == "m" and ds["h_failed"].attrs["units"] == "m"  # compass: SI lengths
     assert h.attrs["resolution"] == 0.002 and h.attrs["limit"] == pytest.approx(0.012) and h.attrs["steps_after_drop"] == 4
     assert "survived together with every smaller one" in h.attrs["comment"] and "4 more steps" in h.attrs["comment"]

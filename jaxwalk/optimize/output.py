@@ -120,13 +120,14 @@ def build_dataset(config: OptimizeConfig, model, path: Path, heatmap: xr.Dataset
     coords = {
         "iteration": ("iteration", np.arange(path.status.shape[0])),
         "start": ("start", np.arange(path.status.shape[1])),
-        "parameter": ("parameter", np.array(p.names)),
+        # Variable-length strings (object): zarr's fixed-width UTF-32 type is "unstable" (it warns).
+        "parameter": ("parameter", np.array(p.names, dtype=object), {"long_name": "optimised parameter"}),
     }
     if p.hold:
-        coords["held"] = ("held", np.array(list(p.hold)))
+        coords["held"] = ("held", np.array(list(p.hold), dtype=object), {"long_name": "held quantity"})
     ds = xr.Dataset(data, coords=coords)
     if heatmap is not None:
-        ds = ds.merge(heatmap)
+        ds = ds.merge(describe_heatmap(heatmap))
     ds.attrs.update(
         {
             "title": f"jaxwalk optimisation '{config.name}' of the {config.model} model",
@@ -142,6 +143,18 @@ def build_dataset(config: OptimizeConfig, model, path: Path, heatmap: xr.Dataset
         }
     )
     return ds
+
+
+def describe_heatmap(heatmap: xr.Dataset) -> xr.Dataset:
+    """The background grid with the attributes a sweep's variables have: units,
+    short long_names, CF status flags (whether computed or read from a store)."""
+    heatmap = heatmap.copy()
+    heatmap["heatmap_lambda_max"].attrs = {
+        "long_name": "largest eigenvalue modulus", "units": "1",
+        "description": "lambda_max of the background grid: largest eigenvalue modulus of the step-to-step Jacobian (stable below 1)",
+    }
+    heatmap["heatmap_status"].attrs = {"long_name": "status", "description": "outcome at this background grid point", **flag_attributes()}
+    return heatmap
 
 
 def _optax_version() -> str:
@@ -162,9 +175,18 @@ def run_optimize(config: OptimizeConfig, out_dir, *, heatmap_path=None, heatmap:
     background = load_heatmap(heatmap_path, config.problem.names) if heatmap_path is not None else None
     model = get_model(config.model)
     solver, newton = solver_options(config)
-    report = (lambda k: print(f"iteration {k}", flush=True)) if progress else None
-    path = optimise(model, config.problem, config.fixed_per_start(), config.starts, solver, newton, progress=report)
+    import sys
+
+    from tqdm.auto import tqdm
+
+    desc = f"{config.name} (the first run of a model compiles; cached afterwards)"
+    with tqdm(total=config.problem.iterations + 1, unit="it", desc=desc, disable=not progress, file=sys.stderr) as bar:
+        path = optimise(
+            model, config.problem, config.fixed_per_start(), config.starts, solver, newton, progress=lambda k: bar.update(1)
+        )
     if background is None and heatmap:
+        if progress:
+            print(f"computing the background grid ({int(np.prod([len(a.values) for a in config.heatmap]))} points)", file=sys.stderr, flush=True)
         background = compute_heatmap(config, model, solver, newton)
     ds = build_dataset(config, model, path, background, command)
     write_zarr(ds, target, overwrite=overwrite)

@@ -50,7 +50,7 @@ def heatmap_figure(ds: xr.Dataset, name: str, layout: Layout):
         name: a variable over the grid axes.
         layout: from :func:`jaxwalk.plot.layout.choose_layout` with ``kind="heatmap"``.
     """
-    from matplotlib.colors import Normalize
+    from matplotlib.colors import Normalize, TwoSlopeNorm
     from matplotlib.figure import Figure  # no pyplot: no global backend or state
 
     views = panel_views(ds, layout)
@@ -67,6 +67,12 @@ def heatmap_figure(ds: xr.Dataset, name: str, layout: Layout):
     norm = Normalize(*(finite.min(), finite.max()) if finite.size else (0.0, 1.0))
     if finite.size and norm.vmin == norm.vmax:  # one value everywhere: still a readable scale
         norm = Normalize(norm.vmin - 0.5 * (abs(norm.vmin) or 1.0), norm.vmax + 0.5 * (abs(norm.vmax) or 1.0))
+    bar_label = variable_label(ds, name)
+    if name == "lambda_max" and finite.size and finite.min() < 1.0 < finite.max():
+        # Stable gaits get half the colours whatever the largest unstable value
+        # (one lambda_max of 3.4 made every stable cell the same dark purple).
+        norm = TwoSlopeNorm(vcenter=1.0, vmin=float(finite.min()), vmax=float(finite.max()))
+        bar_label += "\n(linear below 1 and above 1, 1 at mid-scale)"
 
     counts: dict[int, int] = {}
     drew_contour = drew_unstable = False
@@ -83,7 +89,9 @@ def heatmap_figure(ds: xr.Dataset, name: str, layout: Layout):
         if ax.get_subplotspec().is_first_col():
             ax.set_ylabel(axis_label(ds, layout.y, long=single))
     if finite.size:
-        fig.colorbar(mesh, ax=axes[: len(views)].tolist(), label=variable_label(ds, name), shrink=0.9 if single else 0.7)
+        bar = fig.colorbar(mesh, ax=axes[: len(views)].tolist(), label=bar_label, shrink=0.9 if single else 0.7)
+        if isinstance(norm, TwoSlopeNorm):
+            bar.set_ticks(sorted({round(float(t), 3) for t in np.linspace(norm.vmin, 1.0, 4)} | {round(float(t), 3) for t in np.linspace(1.0, norm.vmax, 4)}))
     fig.suptitle(figure_title(ds, name, layout.fixed), fontsize="medium")
     handles = _legend_handles(ds, counts, drew_contour, drew_unstable)
     if not finite.size:

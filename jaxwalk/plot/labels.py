@@ -71,6 +71,32 @@ def figure_title(ds: xr.Dataset, name: str, fixed: dict[str, int]) -> str:
     head = f"{ds.attrs.get('name', '?')} ({ds.attrs.get('model', '?')}): {SYMBOLS.get(name, name)}, {variable_meaning(ds, name)}"
     if fixed:
         head += "\nat " + ", ".join(value_text(ds, a, i) for a, i in fixed.items())
+    held = fixed_parameters_text(ds)
+    if held:
+        head += f"\n{held}"
     if ds.attrs.get("partial"):  # an unfinished store drawn on request: said in every title
         head += f"\n{ds.attrs['partial'].upper()}"
     return head
+
+
+def fixed_parameters_text(ds: xr.Dataset, max_chars: int = 110) -> str:
+    """``"fixed: m = 5 kg, a = 0.6 m; others at the model's defaults"``: the parameters
+    held fixed (the dataset's ``fixed_parameters``) that differ from the model's defaults."""
+    import json
+
+    from jaxwalk.models import get_model
+
+    try:
+        fixed = json.loads(ds.attrs.get("fixed_parameters", "{}"))
+        units = json.loads(ds.attrs.get("parameter_units", "{}"))
+        specs = get_model(ds.attrs.get("model", "")).param_specs
+    except Exception:  # a dataset of another version or model registry: no caption, not an error
+        return ""
+    swept = set(str(ds.attrs.get("swept_parameters", "")).split())
+    changed = {k: v for k, v in fixed.items() if k not in swept and (k not in specs or float(v) != float(specs[k].default))}
+    parts = [f"{k} = {float(v):.4g}{'' if units.get(k) in (None, '', '1') else ' ' + units[k]}" for k, v in changed.items()]
+    rest = "others at the model's defaults" if len(changed) < len(set(fixed) - swept) else ""
+    text = "; ".join(filter(None, ["fixed: " + ", ".join(parts) if parts else "", rest]))
+    if not parts:
+        text = "all other parameters at the model's defaults"
+    return text if len(text) <= max_chars else text[: max_chars - 3] + "..."

@@ -55,7 +55,8 @@ def lines_figure(ds: xr.Dataset, name: str, layout: Layout):
     n_y = ds.sizes[layout.y] if layout.y else 1
     picked = curve_indices(n_y)
     # A sequential map keeps the curves' order readable (short foot to long foot).
-    colors = ["C0"] if layout.y is None else [colormaps["plasma"](f) for f in np.linspace(0.0, 0.85, len(picked))]
+    # Its light end stops at coral, 3:1 contrast on white (WCAG's for graphics): yellow vanishes.
+    colors = ["C0"] if layout.y is None else [colormaps["plasma"](f) for f in np.linspace(0.0, 0.6, len(picked))]
     lam_known = "lambda_max" in ds and np.isfinite(ds["lambda_max"].values).any()
     any_failed = any((v["status"].values != Status.OK).any() for _, v in views)
 
@@ -87,7 +88,8 @@ def lines_figure(ds: xr.Dataset, name: str, layout: Layout):
         bottom = strip if strip is not None else ax
         if strip is not None:
             ax.tick_params(labelbottom=False)
-            _style_strip(strip, len(picked), first_col=i % ncols == 0)
+            labels = [f"{float(ds[layout.y].values[j]):.3g}" for j in picked] if layout.y else [""]
+            _style_strip(strip, labels, first_col=i % ncols == 0)
         if i + ncols >= len(views):  # no panel below this one
             bottom.set_xlabel(axis_label(ds, layout.x, long=single))
         if i % ncols == 0:
@@ -140,13 +142,16 @@ def _panel(ax, strip, view: xr.Dataset, name: str, layout: Layout, picked, color
     return {"handles": handles, "unstable": unstable_any}
 
 
-def _style_strip(strip, rows: int, *, first_col: bool) -> None:
-    """The failure strip: rows ``0, -1, ..., -(rows - 1)``, no y scale, labelled "failed"."""
+def _style_strip(strip, labels: list[str], *, first_col: bool) -> None:
+    """The failure strip: rows ``0, -1, ..., -(rows - 1)``, each named by its curve's
+    value (on the first column), the strip labelled "failed"."""
+    rows = len(labels)
     strip.set_ylim(-rows + 0.4, 0.6)
-    strip.set_yticks([])
     strip.set_facecolor("0.96")
+    strip.set_yticks(-np.arange(rows), labels if first_col and any(labels) else [""] * rows, fontsize="x-small")
+    strip.tick_params(axis="y", length=0)
     if first_col:
-        strip.set_ylabel("failed", rotation=0, ha="right", va="center", fontsize="small")
+        strip.set_ylabel("failed", rotation=0, ha="right", va="center", fontsize="small", labelpad=4)
 
 
 def _key_handles(ds: xr.Dataset, name: str, counts: dict[int, int], unstable: bool, lam_known: bool, subset: bool) -> list:

@@ -115,7 +115,7 @@ def _padded(n: int) -> int:
     return max(256, 1 << max(n - 1, 0).bit_length())
 
 
-def record_walk(model: Walker, params, y0, phase0, ctx0, n_steps: int, dt: float, opts=None) -> Trajectory:
+def record_walk(model: Walker, params, y0, phase0, ctx0, n_steps: int, dt: float, opts=None, progress=None) -> Trajectory:
     """Walk ``n_steps`` steps from the full state ``(y0, phase0, ctx0)`` and record it.
 
     The walk stops early at the first step that does not end with status ``OK``
@@ -128,6 +128,7 @@ def record_walk(model: Walker, params, y0, phase0, ctx0, n_steps: int, dt: float
         dt: sampling interval (model time units); samples lie at multiples of
             ``dt`` of the walk's time, plus two at every event.
         opts: :class:`jaxwalk.step.SolverOptions` (default settings if ``None``).
+        progress: called with no argument after each step (a progress bar's update).
     """
     import jax.numpy as jnp
 
@@ -227,6 +228,8 @@ def record_walk(model: Walker, params, y0, phase0, ctx0, n_steps: int, dt: float
         step_duration.append(t_local)
         step_length.append(length)
         t_walk += t_local
+        if progress is not None:
+            progress()
         if step_code == int(Status.OK):
             sec_end.append(np.asarray(section(params, y, ctx)))
         else:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+
 import os
 from pathlib import Path
 
@@ -25,12 +27,14 @@ def run_simulation(
     overwrite: bool = False,
     command: str | None = None,
     solver=None,
+    progress: bool = False,
 ) -> tuple[dict[str, Path], Trajectory]:
     """Find the start, walk, write the dataset and figures; return their paths and the walk.
 
     Everything that can be checked is checked before computing (the outputs, the
     model's drawing methods); no gait from the initial guess is a
-    :class:`GaitNotFound` before anything is written.
+    :class:`GaitNotFound` before anything is written. ``progress``: a bar over the
+    steps, with the time left, and a line before each long stage (stderr).
     """
     from jaxwalk.step import SolverOptions
 
@@ -42,6 +46,8 @@ def run_simulation(
     params = as_params(config.fixed)
     gait = None
     if config.v0 is None:
+        if progress:
+            print(f"finding the {model.name} model's periodic gait", file=sys.stderr, flush=True)
         gait = find_start_gait(model, params, solver)
         if int(gait.status) != Status.OK:
             code = int(gait.status)
@@ -54,7 +60,11 @@ def run_simulation(
     else:
         v = np.asarray(config.v0)
     y0, phase0, ctx0 = initial_state(model, params, v, config.drop)
-    traj = record_walk(model, params, y0, phase0, ctx0, config.steps, config.dt, solver)
+    from tqdm.auto import tqdm
+
+    desc = f"{config.name} (the first run of a model compiles; cached afterwards)"
+    with tqdm(total=config.steps, unit="step", desc=desc, disable=not progress, file=sys.stderr) as bar:
+        traj = record_walk(model, params, y0, phase0, ctx0, config.steps, config.dt, solver, progress=lambda: bar.update(1))
 
     from jaxwalk.sweep.dataset import write_zarr
 
@@ -62,6 +72,9 @@ def run_simulation(
     write_zarr(ds, paths["dataset"], overwrite=overwrite)
     if plot or gif:
         from jaxwalk.figures import save_animation, save_stick_diagram, save_time_series, walk_geometry
+
+        if progress:
+            print(f"drawing {' and '.join(k for k, on in (('the figures', plot), ('the GIF', gif)) if on)}", file=sys.stderr, flush=True)
 
         geo = walk_geometry(ds, model)
         if plot:

@@ -204,7 +204,40 @@ def build_dataset(
         "history": f"{created_s}: {command or 'jaxwalk.sweep.run_sweep'}",
         **{f"{name}_version": v for name, v in versions.items()},
     }
-    return xr.Dataset(data_vars, coords=coords, attrs=attrs)
+    return xr.Dataset(short_names(data_vars), coords=short_names(coords), attrs=attrs)
+
+
+#: Short ``long_name`` of each variable, as xarray's own plots label an axis
+#: ("step length [m]"); the sentence it replaces is the variable's ``description``.
+SHORT_NAMES = {
+    "section": "section coordinate",
+    "eigen": "eigenvalue index",
+    "status": "status",
+    "lambda_max": "largest eigenvalue modulus",
+    "eigenvalues_real": "eigenvalue, real part",
+    "eigenvalues_imag": "eigenvalue, imaginary part",
+    "fixed_point": "fixed point",
+    "period": "step period",
+    "step_length": "step length",
+    "speed": "speed",
+    "work": "actuator work per step",
+    "cost_of_transport": "cost of transport",
+    "newton_iterations": "Newton iterations",
+    "h_max": "largest survived step-down",
+    "step_down_status": "step-down status",
+    "h_failed": "first failed drop",
+}
+
+
+def short_names(variables: dict) -> dict:
+    """``variables`` (``{name: (dims, values, attrs)}``) with :data:`SHORT_NAMES` as
+    ``long_name`` and the sentence moved to ``description``."""
+    out = {}
+    for name, (dims, values, attrs) in variables.items():
+        if name in SHORT_NAMES and "long_name" in attrs:
+            attrs = {**attrs, "long_name": SHORT_NAMES[name], "description": attrs["long_name"]}
+        out[name] = (dims, values, attrs)
+    return out
 
 
 def step_down_variables(

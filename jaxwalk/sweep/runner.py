@@ -39,6 +39,7 @@ import dataclasses
 import os
 import shlex
 import sys
+import time
 import warnings
 from pathlib import Path
 from typing import Callable, Mapping
@@ -147,6 +148,7 @@ def run_sweep(
 
         seeds = seed_lines(model, config.fixed, config.grid, config.continuation, config.seed_axis, options)
     starts = None if seeds is None else seeds.starts
+    started, traced_before, points_before = time.perf_counter(), program_cache_traces(), store.points_done
     if store.done:
         print(
             f"continuing the unfinished run in '{store.partial}': {len(store.done)} of {store.n_chunks} chunks "
@@ -162,6 +164,11 @@ def run_sweep(
                     bar.update(store.points_in(index))
     except KeyboardInterrupt:
         raise SweepInterrupted(interrupted_message(store, config.n_points, command)) from None
+    if getattr(analyse, "__module__", None) == "jaxwalk.grid" and dask is None:  # this machine's speed, for --dry-run
+        from jaxwalk.sweep import timings
+
+        points = config.n_points - points_before
+        timings.record(config, time.perf_counter() - started, points, program_cache_traces() > traced_before)
     if seeds is not None:
         from jaxwalk.seedline import dataset_attributes
 
@@ -175,6 +182,46 @@ def run_sweep(
         except Exception as err:  # a figure is a convenience; the dataset is written
             warnings.warn(f"figures not written: {' '.join(str(err).split())}", stacklevel=2)
     return target
+
+
+def program_cache_traces() -> int:
+    """Grid programs traced so far in this process (0 if the analysis never loaded)."""
+    module = sys.modules.get("jaxwalk.program_cache")
+    return module.counts["traced"] if module is not None else 0
+
+
+def dry_run(config: SweepConfig, out_dir, *, chunk_size: int | None = None, overwrite: bool = False) -> str:
+    """What ``run_sweep`` would do, computing nothing: points, chunks, store size, time when known.
+
+    Raises:
+        ConfigError: as ``run_sweep`` would, before computing.
+    """
+    from jaxwalk.sweep import timings
+    from jaxwalk.sweep.config import _human_bytes
+    from jaxwalk.sweep.store import ChunkStore
+
+    model = get_model(config.model)
+    target = check_output(out_dir, config.name, overwrite=overwrite)
+    options = analysis_options(config)
+    if chunk_size is not None:
+        options = dataclasses.replace(options, chunk_size=chunk_size)
+    keys = {**RESULT_KEYS, **({k: False for k in STEP_DOWN_KEYS} if config.h_max is not None else {})}
+    store = ChunkStore.plan(
+        config, model, target, chunk_size=options.chunk_size, options=_as_attribute(options), result_keys=keys,
+        overwrite=overwrite,
+    )
+    shape = " x ".join(map(str, config.shape))
+    todo = config.n_points - store.points_done
+    lines = [
+        f"{config.name}: {config.n_points:,} points ({shape}, {config.model} model) in {store.n_chunks:,} chunk"
+        f"{'s' * (store.n_chunks != 1)} of {' x '.join(map(str, store.chunks))}",
+        f"store: {target}, up to {_human_bytes(store.estimated_bytes())} on disk",
+    ]
+    if store.done:
+        lines.append(f"continues an unfinished run: {len(store.done)} of {store.n_chunks} chunks done, {todo:,} points to go")
+    guess = timings.estimate(config, todo)
+    lines.append(f"time: {guess}" if guess else f"time: unknown (no earlier {config.model} run of this kind on this machine)")
+    return "\n".join(lines)
 
 
 class SweepInterrupted(KeyboardInterrupt):
