@@ -21,7 +21,7 @@ from jaxwalk.sweep.config import ConfigError
 
 #: The variables drawn by default, in this order, when the dataset has them with values.
 #: ``h_max`` (``[analysis] h_max``) and ``cost_of_transport`` are optional.
-DEFAULT_VARIABLES = ("lambda_max", "h_max", "speed", "cost_of_transport")
+DEFAULT_VARIABLES = ("lambda_max", "h_max", "speed", "cost_of_transport", "attractor_period", "attractor_rate")
 
 
 class PlotError(ConfigError):

@@ -42,6 +42,7 @@ from typing import Iterator, Mapping
 
 import numpy as np
 
+from jaxwalk.sweep import attractors
 from jaxwalk.sweep.config import ConfigError, GridAxis, SweepConfig, _human_bytes
 from jaxwalk.walker import Walker
 
@@ -63,8 +64,11 @@ def _template_results(keys: Mapping[str, bool], shape: tuple[int, ...], n_v: int
     """Results of the grid's shape as zero-stride views of one fill value (no memory)."""
     out = {}
     for key, trailing in keys.items():
-        full = shape + ((n_v,) if trailing else ())
-        if key in ("status", "step_down_status"):
+        # trailing: True (one section-sized axis), False (none) or a shape (the attractor's arrays).
+        full = shape + (tuple(trailing) if isinstance(trailing, tuple) else (n_v,) if trailing else ())
+        if key.startswith("attractor_"):
+            value = attractors.template_value(key)
+        elif key in ("status", "step_down_status"):
             value = np.int8(0)
         elif key == "newton_iterations":
             value = np.int32(0)
