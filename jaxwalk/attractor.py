@@ -74,6 +74,10 @@ class AttractorOptions:
         return tuple(1 << i for i in range(self.max_period.bit_length()))
 
 
+#: Halvings of a Newton update whose k steps fail before the search gives up (:func:`find_cycle`).
+MAX_HALVINGS = 8
+
+
 class Attractor(NamedTuple):
     """The attractor near a period-1 gait (batch shape in front under vmap).
 
@@ -183,6 +187,9 @@ def find_cycle(model: Walker, params, v0: Array, k: Array, max_period: int,
     after the update that falls below ``newton.tol`` one more evaluation gives
     the Jacobian at the converged point.
 
+    An update whose steps fail is halved (up to :data:`MAX_HALVINGS` times)
+    instead of ending the search.
+
     Returns ``(v, jacobian, points, status)``: the fixed point ``(n_v,)``,
     ``d f^k/dv`` there ``(n_v, n_v)``, the cycle's points ``(max_period, n_v)``
     (:func:`cycle_map`), and ``OK``, a failing step's status or ``NO_CONVERGENCE``.
@@ -205,19 +212,28 @@ def find_cycle(model: Walker, params, v0: Array, k: Array, max_period: int,
         size = jnp.max(jnp.abs(update))
         update = update * jnp.minimum(1.0, newton.max_update / jnp.maximum(size, 1e-300))
         failed = step_status != Status.OK
+        # Damped Newton: an update whose k steps fail (a k-step map's Newton
+        # step can overshoot into scuffing) is halved, up to MAX_HALVINGS times.
+        retry = failed & (it > 0) & (carry["halvings"] < MAX_HALVINGS)
         bad = ~jnp.all(jnp.isfinite(update))
-        it = it + jnp.where(converged, 0, 1)
+        it = it + jnp.where(converged | retry, 0, 1)
         status = jnp.select(
-            [failed, converged, bad | (it >= newton.max_iter)],
-            [step_status, jnp.int8(Status.OK), jnp.int8(Status.NO_CONVERGENCE)],
+            [retry, failed, converged, bad | (it >= newton.max_iter)],
+            [running, step_status, jnp.int8(Status.OK), jnp.int8(Status.NO_CONVERGENCE)],
             running,
         ).astype(jnp.int8)
         move = ~(failed | bad | converged)
-        return {"v": jnp.where(move, v + update, v), "it": it, "status": status,
-                "converged": converged | (size < newton.tol), "jac": jac_r + eye, "points": points}
+        half = 0.5 * carry["last"]
+        v_next = jnp.where(retry, carry["v_prev"] + half, jnp.where(move, v + update, v))
+        return {"v": v_next, "it": it, "status": status,
+                "converged": converged | (~failed & (size < newton.tol)),
+                "jac": jnp.where(failed, carry["jac"], jac_r + eye), "points": jnp.where(failed, carry["points"], points),
+                "v_prev": jnp.where(failed, carry["v_prev"], v), "last": jnp.where(retry, half, update),
+                "halvings": jnp.where(retry, carry["halvings"] + 1, 0)}
 
     carry0 = {"v": v0, "it": jnp.zeros((), jnp.int32), "status": running, "converged": jnp.asarray(False),
-              "jac": jnp.full((n_v, n_v), jnp.nan, v0.dtype), "points": jnp.full((max_period, n_v), jnp.nan, v0.dtype)}
+              "jac": jnp.full((n_v, n_v), jnp.nan, v0.dtype), "points": jnp.full((max_period, n_v), jnp.nan, v0.dtype),
+              "v_prev": v0, "last": jnp.zeros_like(v0), "halvings": jnp.zeros((), jnp.int32)}
     out = jax.lax.while_loop(cond, body, carry0)
     return out["v"], out["jac"], out["points"], out["status"]
 

@@ -6,11 +6,14 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+import xarray as xr
+
 from jaxwalk.attractor import AttractorOptions
-from jaxwalk.grid import AnalysisOptions, analyse_grid
 from jaxwalk.models import get_model
+from jaxwalk.plot import make_figures
 from jaxwalk.status import Status
 from jaxwalk.step import step_map
+from jaxwalk.sweep import loads_config, run_sweep
 from tests.reference import cycles as ref_cycles
 from tests.reference.fixed_points import simplest_fixed_point
 
@@ -22,10 +25,35 @@ GAMMAS = np.array([0.009, 0.0125, 0.0155, 0.016, 0.017, 0.018])
 P2, P4 = 3, 5  # gamma 0.016, 0.018
 
 
+CONFIG = f"""
+name = "doublings"
+model = "simplest"
+[grid]
+gamma = {{ values = {GAMMAS.tolist()} }}
+[analysis]
+attractors = true
+"""
+
+
 @pytest.fixture(scope="module")
-def sweep():
-    options = AnalysisOptions(attractors=AttractorOptions())
-    return analyse_grid(MODEL, {}, {"gamma": GAMMAS}, "gamma", options)
+def sweep_path(tmp_path_factory):
+    """The slope line as ``jaxwalk sweep`` writes it."""
+    return run_sweep(loads_config(CONFIG), tmp_path_factory.mktemp("attractors"), progress=False, plot=False)
+
+
+@pytest.fixture(scope="module")
+def sweep(sweep_path):
+    """Its variables, read back (complex ones joined)."""
+    ds = xr.open_dataset(sweep_path, engine="zarr")
+    results = {name: ds[name].values for name in ds.data_vars}
+    results["eigenvalues"] = results["eigenvalues_real"] + 1j * results["eigenvalues_imag"]
+    results["attractor_multipliers"] = results["attractor_multipliers_real"] + 1j * results["attractor_multipliers_imag"]
+    return results
+
+
+def test_dataset_layout(sweep):
+    assert sweep["attractor_status"].dtype == np.int8 and sweep["attractor_period"].dtype == np.int32
+    assert sweep["attractor_points"].shape == (len(GAMMAS), AttractorOptions().max_period, 3)
 
 
 def test_stable_gait_is_its_own_attractor(sweep):
@@ -92,3 +120,10 @@ def test_attractor_equals_direct_simulation(sweep, index, k):
     points = _match(sweep["attractor_points"][index, :k], last)
     np.testing.assert_allclose(points, last, atol=1e-8)
     assert np.isnan(sweep["attractor_points"][index, k:]).all()
+
+
+def test_figures_draw_periods_and_rates(sweep_path):
+    figures = make_figures(xr.open_dataset(sweep_path, engine="zarr"))
+    assert {("attractor_period", "lines"), ("attractor_rate", "lines"), ("lambda_max", "lines")} <= set(figures)
+    period_only = make_figures(xr.open_dataset(sweep_path, engine="zarr"), variables=["lambda_max"])
+    assert set(period_only) == {("lambda_max", "lines")}

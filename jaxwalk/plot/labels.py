@@ -17,6 +17,8 @@ SYMBOLS = {
     "cost_of_transport": "cost of transport",
     "step_length": "step length",
     "period": "step period",
+    "attractor_period": "attractor period k [steps]",
+    "attractor_rate": r"attractor rate $\lambda_{\max,k}^{1/k}$",
 }
 #: What each shows, for titles.
 MEANINGS = {
@@ -26,6 +28,8 @@ MEANINGS = {
     "cost_of_transport": "actuator work per weight and distance",
     "step_length": "distance the stance foot advances per step",
     "period": "duration of one step",
+    "attractor_period": "steps per cycle of the gait the walker settles on",
+    "attractor_rate": "per-step contraction of the gait the walker settles on",
 }
 #: The legend text of the stability boundary.
 STABILITY_LIMIT = r"$\lambda_{\max} = 1$ (stability limit)"

@@ -13,6 +13,7 @@ from typing import Sequence
 
 import xarray as xr
 
+from jaxwalk.plot.attractors import view_for
 from jaxwalk.plot.heatmap import heatmap_figure
 from jaxwalk.plot.layout import MAX_PANELS, choose_layout, parse_at
 from jaxwalk.plot.lines import lines_figure
@@ -38,7 +39,9 @@ def make_figures(
     Args:
         ds: a sweep dataset (in memory; :func:`jaxwalk.plot.source.open_sweep` reads one).
         variables: names to draw (default: ``lambda_max``, ``h_max``, ``speed``,
-            ``cost_of_transport``, those the dataset has with values).
+            ``cost_of_transport``, ``attractor_period``, ``attractor_rate``, those
+            the dataset has with values; attractor variables on the attractor's
+            statuses, :mod:`jaxwalk.plot.attractors`).
         kinds: among :data:`KINDS`; default: line plots, and heatmaps when the grid
             has two axes of more than one value. A heatmap asked for on a grid
             without them is an error.
@@ -63,7 +66,7 @@ def make_figures(
             raise PlotError(f"--kind: unknown kind '{unknown[0]}' (kinds: {', '.join(KINDS)})")
         layouts = {k: choose_layout(ds, k, x=x, y=y, at=at, max_panels=max_panels) for k in KINDS if k in kinds}
     draw = {"heatmap": heatmap_figure, "lines": lines_figure}
-    return {(name, kind): draw[kind](ds, name, layout) for name in names for kind, layout in layouts.items()}
+    return {(name, kind): draw[kind](view_for(ds, name), name, layout) for name in names for kind, layout in layouts.items()}
 
 
 def plot_dataset(

@@ -22,7 +22,7 @@ from jaxwalk.sweep.integrity import check_complete
 
 #: The variables drawn by default, in this order, when the dataset has them with values.
 #: ``h_max`` (``[analysis] h_max``) and ``cost_of_transport`` are optional.
-DEFAULT_VARIABLES = ("lambda_max", "h_max", "speed", "cost_of_transport")
+DEFAULT_VARIABLES = ("lambda_max", "h_max", "speed", "cost_of_transport", "attractor_period", "attractor_rate")
 
 
 class PlotError(ConfigError):

@@ -33,6 +33,7 @@ import numpy as np
 
 from jaxwalk.models import get_model
 from jaxwalk.parameters import ParamSpec
+from jaxwalk.sweep import attractors
 
 #: Largest grid accepted by default (points); callers may pass their own ``max_points``.
 DEFAULT_MAX_POINTS = 10_000_000
@@ -42,7 +43,7 @@ TOP_LEVEL_KEYS = ("name", "model", *SECTIONS)
 AXIS_KEYS = ("start", "stop", "num", "values")
 #: Solver settings passed through to the analysis when set (absent: its defaults).
 SOLVER_KEYS = ("rtol", "atol", "newton_tol", "max_newton_iter")
-ANALYSIS_KEYS = ("stability", "continuation", "seed_axis", "h_max", *SOLVER_KEYS)
+ANALYSIS_KEYS = ("stability", "continuation", "seed_axis", "h_max", "attractors", *SOLVER_KEYS)
 #: Keys of ``[analysis] h_max`` and the :class:`jaxwalk.stepdown.StepDownOptions` fields they set.
 H_MAX_KEYS = {"step": "dh", "count": "count", "steps": "n_steps"}
 
@@ -90,6 +91,8 @@ class SweepConfig:
             with its defaults: ``{"step": float, "count": int, "steps": int}``
             (resolution in model length units, drops tried ``step, 2 step, ...,
             count * step``, steps to survive after the drop), or ``None`` when off.
+        attractors: the attractor search (``{"max_period": int, "steps": int}``,
+            :mod:`jaxwalk.sweep.attractors`), or ``None`` when off.
         source: where the config came from (a path, or a label).
         text: the TOML source, when read from text.
     """
@@ -104,6 +107,7 @@ class SweepConfig:
     seed_axis: str | None = None
     solver: dict[str, float | int] = dataclasses.field(default_factory=dict)
     h_max: dict[str, float | int] | None = None
+    attractors: dict[str, int] | None = None
     source: str = "<config>"
     text: str | None = None
 
@@ -142,6 +146,7 @@ class SweepConfig:
                 "continuation": self.continuation if self.continuation is not None else False,
                 **({"seed_axis": self.seed_axis} if self.seed_axis is not None else {}),
                 "h_max": dict(self.h_max) if self.h_max is not None else False,
+                **({"attractors": dict(self.attractors)} if self.attractors is not None else {}),
                 **self.solver,
             },
         }
@@ -242,6 +247,7 @@ def parse_config(
         seed_axis=seed_axis,
         solver=solver,
         h_max=h_max,
+        attractors=attractors.parse(data.get("analysis", {}).get("attractors", False), fail),
         source=source,
         text=text,
     )

@@ -37,6 +37,7 @@ import xarray as xr
 
 import jaxwalk
 from jaxwalk.status import flag_attributes
+from jaxwalk.sweep import attractors
 from jaxwalk.sweep.config import SweepConfig
 from jaxwalk.walker import Walker
 
@@ -180,6 +181,8 @@ def build_dataset(
     }
     if config.h_max is not None:
         data_vars.update(step_down_variables(config.h_max, dims, results, units["length"]))
+    if config.attractors is not None:
+        data_vars.update(attractors.variables(dims, results))
 
     versions = package_versions()
     attrs = {

@@ -48,6 +48,7 @@ import numpy as np
 
 from jaxwalk.models import get_model
 from jaxwalk.status import RESULT_STATUSES, Status
+from jaxwalk.sweep import attractors
 from jaxwalk.sweep.config import DEFAULT_MAX_POINTS, ConfigError, SweepConfig, load_config
 
 Analyse = Callable[..., Mapping[str, np.ndarray]]
@@ -137,11 +138,13 @@ def run_sweep(
 
     step_down = config.h_max is not None
     keys = {**RESULT_KEYS, **({k: False for k in STEP_DOWN_KEYS} if step_down else {})}
+    n_v = len(model.section_names)
+    attractor_keys = None if config.attractors is None else attractors.result_keys(config.attractors, n_v)
+    keys.update(attractor_keys or {})
     store = ChunkStore.plan(  # checks a partial run and the disk space; writes nothing
         config, model, target, chunk_size=options.chunk_size, options=_as_attribute(options), result_keys=keys,
         command=command, overwrite=overwrite,
     )
-    n_v = len(model.section_names)
     seeds = None
     if config.seed_axis is not None:  # once for the whole grid, before its blocks (jaxwalk.seedline)
         from jaxwalk.seedline import seed_lines
@@ -160,7 +163,10 @@ def run_sweep(
             with bar:
                 for index, results in finished:  # each block checked and on disk as soon as it is done
                     shape = tuple(r.stop - r.start for r in store.region(index))
-                    store.write(index, check_results(results, shape, n_v, stability=config.stability, step_down=step_down))
+                    checked = check_results(results, shape, n_v, stability=config.stability, step_down=step_down)
+                    if attractor_keys is not None:
+                        checked.update(attractors.check(results, checked["status"], attractor_keys))
+                    store.write(index, checked)
                     bar.update(store.points_in(index))
     except KeyboardInterrupt:
         raise SweepInterrupted(interrupted_message(store, config.n_points, command)) from None
@@ -252,7 +258,8 @@ def analysis_options(config: SweepConfig):
         from jaxwalk.stepdown import StepDownOptions
 
         step_down = StepDownOptions(dh=config.h_max["step"], count=config.h_max["count"], n_steps=config.h_max["steps"])
-    return dataclasses.replace(base, solver=solver, newton=newton, step_down=step_down)
+    return dataclasses.replace(base, solver=solver, newton=newton, step_down=step_down,
+                               attractors=attractors.options(config.attractors))
 
 
 def _as_attribute(options) -> dict:

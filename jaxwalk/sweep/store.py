@@ -43,6 +43,7 @@ from typing import Iterator, Mapping
 import numpy as np
 
 from jaxwalk.status import Status
+from jaxwalk.sweep import attractors
 from jaxwalk.sweep.config import ConfigError, GridAxis, SweepConfig, _human_bytes
 from jaxwalk.walker import Walker
 
@@ -62,16 +63,19 @@ def partial_path(target: Path) -> Path:
 
 #: Status variables: their zarr fill value is ``NOT_COMPUTED``, so a chunk never
 #: written reads as "not computed", never as "ok" with NaN numbers.
-STATUS_KEYS = ("status", "step_down_status")
+STATUS_KEYS = ("status", "step_down_status", "attractor_status")
 
 
 def _template_results(keys: Mapping[str, bool], shape: tuple[int, ...], n_v: int) -> dict[str, np.ndarray]:
     """Results of the grid's shape as zero-stride views of one fill value (no memory)."""
     out = {}
     for key, trailing in keys.items():
-        full = shape + ((n_v,) if trailing else ())
+        # trailing: True (one section-sized axis), False (none) or a shape (the attractor's arrays).
+        full = shape + (tuple(trailing) if isinstance(trailing, tuple) else (n_v,) if trailing else ())
         if key in STATUS_KEYS:
             value = np.int8(Status.NOT_COMPUTED)
+        elif key.startswith("attractor_"):
+            value = attractors.template_value(key)
         elif key == "newton_iterations":
             value = np.int32(0)
         elif key == "eigenvalues":

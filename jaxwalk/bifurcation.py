@@ -1,0 +1,317 @@
+"""Bifurcations along a continuation line, located to ``tol`` in the parameter.
+
+Along a line of gaits (period 1, or period-k cycles: fixed points of the
+k-step map) the multipliers ``mu`` (eigenvalues of the map's Jacobian) move
+with the parameter. A bifurcation is where a test function changes sign:
+
+* **fold**: a real multiplier through +1, ``prod(mu - 1)``;
+* **flip** (period doubling): a real multiplier through -1, ``prod(mu + 1)``;
+* **Neimark-Sacker**: a complex pair through the unit circle, the bialternate
+  product ``prod_(i<j) (mu_i mu_j - 1)`` (which also vanishes at a real pair
+  with ``mu_i mu_j = 1``, a neutral saddle: kept only where the pair nearest
+  ``mu_i mu_j = 1`` is complex).
+
+Where the line goes on but its gait is lost (Newton fails on one side), the
+edge is located by bisection on "a gait is found" and labelled **grazing**
+when the failure beyond it is a step's (a guard reached: scuffing, a fall,
+...: the event sequence changes), **fold** when a real multiplier is within
+``fold_window`` of +1 at the edge (the gait turns back: a natural-parameter
+line cannot follow it), and **lost** otherwise.
+
+Each test-function bracket (two neighbouring grid points with opposite signs)
+is shrunk by the Illinois variant of regula falsi, one Newton re-solve of the
+cycle per trial parameter (started from the bracket's ends interpolated), all
+brackets of all lines batched in one ``vmap`` per iteration, until it is
+narrower than ``2 tol``; its midpoint is then within ``tol`` of the root of the
+test function of the computed map (the map's own accuracy, ~1e-10 in the
+section, sets how well that root is the true one).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import functools
+from typing import Mapping, NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from jaxwalk.attractor import AttractorOptions, find_cycle, minimal_period, spectrum
+from jaxwalk.gait import NewtonOptions
+from jaxwalk.status import Status
+from jaxwalk.step import SolverOptions
+from jaxwalk.walker import Walker
+
+
+class Kind(enum.IntEnum):
+    """Bifurcation labels (values are file format: append, never renumber)."""
+
+    FOLD = 1
+    FLIP = 2
+    NEIMARK_SACKER = 3
+    GRAZING = 4
+    LOST = 5
+
+
+KIND_MEANINGS = {
+    Kind.FOLD: "fold: a real multiplier through +1 (or the gait turns back at the edge where it is lost)",
+    Kind.FLIP: "flip (period doubling): a real multiplier through -1",
+    Kind.NEIMARK_SACKER: "Neimark-Sacker: a complex pair of multipliers through the unit circle",
+    Kind.GRAZING: "grazing: the gait is lost where a step starts to fail (a guard reaches zero: scuffing, a fall, ...)",
+    Kind.LOST: "the gait is lost (Newton fails beyond) with no multiplier near +1 and no failing step",
+}
+
+
+@dataclasses.dataclass(frozen=True)
+class BifurcationOptions:
+    """Settings of the location.
+
+    Attributes:
+        tol: half-width of the final bracket (parameter units): the located value's accuracy.
+        max_iter: root-finder iterations per bracket before ``NO_CONVERGENCE``.
+        fold_window: at a lost gait's edge, a real multiplier within this of +1 makes it a fold.
+    """
+
+    tol: float = 1e-6
+    max_iter: int = 80
+    fold_window: float = 0.05
+
+
+class Bifurcations(NamedTuple):
+    """A table of located points (one row each).
+
+    Attributes:
+        kind: int8 :class:`Kind`.
+        parameter: the continuation parameter's value there.
+        line: index of the line (row of the lines given).
+        period: k of the map whose multipliers cross (1: the period-1 gait).
+        status: int8 ``OK``, or why the location failed (its bracket is then the row's ``parameter``
+            midpoint, not to ``tol``).
+        v: ``(n_v,)`` the cycle's point at the located parameter (on the gait's side for edges).
+        multipliers: ``(n_v,)`` complex, there.
+        beyond: int8 status of the failure beyond an edge (``OK`` for sign changes).
+    """
+
+    kind: np.ndarray
+    parameter: np.ndarray
+    line: np.ndarray
+    period: np.ndarray
+    status: np.ndarray
+    v: np.ndarray
+    multipliers: np.ndarray
+    beyond: np.ndarray
+
+
+def indicators(mu: np.ndarray) -> np.ndarray:
+    """``(..., 3)``: the fold, flip and Neimark-Sacker test functions of multipliers ``(..., n_v)``."""
+    mu = np.asarray(mu, np.complex128)
+    fold = np.prod(mu - 1.0, axis=-1).real
+    flip = np.prod(mu + 1.0, axis=-1).real
+    i, j = np.triu_indices(mu.shape[-1], 1)
+    ns = np.prod(mu[..., i] * mu[..., j] - 1.0, axis=-1).real
+    return np.stack([fold, flip, ns], axis=-1)
+
+
+def _complex_pair_on_circle(mu: np.ndarray) -> bool:
+    i, j = np.triu_indices(mu.shape[-1], 1)
+    nearest = int(np.argmin(np.abs(mu[i] * mu[j] - 1.0)))
+    return abs(mu[i[nearest]].imag) > 1e-6 and abs(mu[i[nearest]] - np.conj(mu[j[nearest]])) < 1e-6
+
+
+@functools.lru_cache(maxsize=None)
+def _solver(model: Walker, k: int, solver: SolverOptions, newton: NewtonOptions):
+    """Batched Newton re-solve of the period-k cycle: ``(params, v0) -> (status, v, multipliers)``."""
+
+    k_ = jnp.asarray(k, jnp.int32)
+
+    def one(p, v0):
+        _, jac, points, status = find_cycle(model, p, v0, k_, k, solver, newton)
+        eig, _ = spectrum(jnp.where(jnp.isfinite(jac).all(), jac, jnp.eye(v0.shape[0], dtype=v0.dtype)))
+        # A fixed point of f^k that closes after fewer steps is a shorter cycle, not this branch's.
+        shorter = minimal_period(points, k_, AttractorOptions(max_period=k)) < k_
+        status = jnp.where((status == Status.OK) & shorter, jnp.int8(Status.CYCLE_NOT_FOUND), status)
+        return status, points[0], eig
+
+    return jax.jit(jax.vmap(one))
+
+
+def _evaluate(model, k, solver, newton, params: Mapping[str, np.ndarray], v0: np.ndarray):
+    """Re-solve at a batch of parameter sets, padded to a power of two (few compiled shapes)."""
+    n = v0.shape[0]
+    size = 1 << max(0, (n - 1).bit_length())
+    pad = lambda x: np.concatenate([x, np.repeat(x[-1:], size - n, axis=0)]) if size > n else x
+    status, v, eig = _solver(model, k, solver, newton)({k_: pad(np.asarray(x)) for k_, x in params.items()}, pad(v0))
+    return np.asarray(status)[:n], np.asarray(v)[:n], np.asarray(eig)[:n]
+
+
+def follow(model: Walker, lines: Mapping[str, np.ndarray], v0: np.ndarray, start: int, period: int = 1,
+           solver: SolverOptions = SolverOptions(), newton: NewtonOptions = NewtonOptions()):
+    """Natural-parameter continuation of period-k cycles along ``n_lines`` lines of ``n`` points.
+
+    Each line starts at point ``start`` from ``v0[line]`` and walks up the line,
+    then down from ``start``, each point from its neighbour's cycle (the last
+    found one after a failure), all lines batched.
+
+    Returns ``(status, v, multipliers)``, ``(n_lines, n)``, ``(n_lines, n, n_v)`` twice.
+    """
+    n_lines, n = next(iter(lines.values())).shape
+    v0 = np.asarray(v0, np.float64).reshape(n_lines, -1)
+    status = np.full((n_lines, n), Status.NO_CONVERGENCE, np.int8)
+    v = np.full((n_lines, n, v0.shape[-1]), np.nan)
+    mu = np.full(v.shape, np.nan, np.complex128)
+    rows = np.arange(n_lines)
+    for order in (range(start, n), range(start - 1, -1, -1)):
+        prev = v0.copy() if order.start == start else v[:, start].copy()
+        prev = np.where(np.isfinite(prev), prev, v0)
+        for i in order:
+            st, v_i, mu_i = _evaluate(model, period, solver, newton, _params_at(lines, None, rows, None, np.full(n_lines, i)), prev)
+            status[:, i], v[:, i], mu[:, i] = st, np.where((st == 0)[:, None], v_i, np.nan), np.where((st == 0)[:, None], mu_i, np.nan)
+            prev = np.where((st == 0)[:, None], v_i, prev)
+    return status, v, mu
+
+
+def locate(
+    model: Walker,
+    lines: Mapping[str, np.ndarray],
+    axis: str,
+    status: np.ndarray,
+    v: np.ndarray,
+    multipliers: np.ndarray,
+    period: int = 1,
+    options: BifurcationOptions = BifurcationOptions(),
+    solver: SolverOptions = SolverOptions(),
+    newton: NewtonOptions = NewtonOptions(),
+) -> Bifurcations:
+    """Every bifurcation between neighbouring points of ``n_lines`` lines of ``n`` points.
+
+    Args:
+        lines: every model parameter as an ``(n_lines, n)`` array; ``lines[axis]``
+            is the continuation parameter (monotone along each line).
+        status: ``(n_lines, n)`` status of each point's cycle (0: found).
+        v: ``(n_lines, n, n_v)`` a point of each cycle (the period-1 fixed point for ``period = 1``).
+        multipliers: ``(n_lines, n, n_v)`` complex eigenvalues of the k-step map's Jacobian there.
+        period: k, the map's number of steps.
+
+    Returns:
+        :class:`Bifurcations`, rows ordered by line then parameter.
+    """
+    status = np.asarray(status)
+    tests = indicators(multipliers)
+    sign_rows, edge_rows = [], []
+    n_lines, n = status.shape
+    for line, i in ((line, i) for line in range(n_lines) for i in range(n - 1)):
+        a, b = (line, i), (line, i + 1)
+        ok_a, ok_b = status[a] == Status.OK, status[b] == Status.OK
+        if ok_a and ok_b:
+            for kind, column in ((Kind.FOLD, 0), (Kind.FLIP, 1), (Kind.NEIMARK_SACKER, 2)):
+                if np.sign(tests[a][column]) * np.sign(tests[b][column]) < 0:
+                    sign_rows.append((kind, column, line, i))
+        elif ok_a != ok_b:
+            edge_rows.append((line, i, i + 1) if ok_a else (line, i + 1, i))  # (line, found, lost)
+    rows = _shrink_signs(model, lines, axis, v, tests, sign_rows, period, options, solver, newton)
+    rows += _shrink_edges(model, lines, axis, status, v, edge_rows, period, options, solver, newton)
+    rows.sort(key=lambda r: (r["line"], r["parameter"]))
+    n_v = v.shape[-1]
+    col = lambda key, dtype: np.array([r[key] for r in rows], dtype)
+    return Bifurcations(
+        kind=col("kind", np.int8), parameter=col("parameter", np.float64), line=col("line", np.int32),
+        period=np.full(len(rows), period, np.int32), status=col("status", np.int8),
+        v=np.array([r["v"] for r in rows], np.float64).reshape(-1, n_v),
+        multipliers=np.array([r["multipliers"] for r in rows], np.complex128).reshape(-1, n_v),
+        beyond=col("beyond", np.int8),
+    )
+
+
+def _params_at(lines, axis, line_index: np.ndarray, x: np.ndarray, i: np.ndarray) -> dict[str, np.ndarray]:
+    """Parameters of the lines at continuation values ``x`` (other parameters of point ``i``)."""
+    out = {k: np.asarray(val)[line_index, i] for k, val in lines.items()}
+    if axis is not None:
+        out[axis] = x
+    return out
+
+
+def _shrink_signs(model, lines, axis, v, tests, rows, period, options, solver, newton) -> list[dict]:
+    """Illinois regula falsi on each sign-change bracket, all brackets batched."""
+    if not rows:
+        return []
+    kind = np.array([r[0] for r in rows]); column = np.array([r[1] for r in rows])
+    line = np.array([r[2] for r in rows]); i = np.array([r[3] for r in rows])
+    x = np.asarray(lines[axis], np.float64)
+    lo, hi = x[line, i], x[line, i + 1]
+    f_lo, f_hi = tests[line, i, column], tests[line, i + 1, column]
+    v_lo, v_hi = v[line, i], v[line, i + 1]
+    state = np.full(len(rows), Status.IN_PROGRESS, np.int8)
+    side = np.zeros(len(rows), np.int8)  # which end was kept last (Illinois halves its value when kept twice)
+    for it in range(options.max_iter):
+        active = (state == Status.IN_PROGRESS) & (np.abs(hi - lo) > 2 * options.tol)
+        state[(state == Status.IN_PROGRESS) & ~active] = Status.OK
+        if not active.any():
+            break
+        secant = hi - f_hi * (hi - lo) / (f_hi - f_lo)
+        # Every fourth trial a bisection, and never within 1% of an end: the bracket must shrink from both sides.
+        width = hi - lo
+        trial = np.where((it % 4 == 3) | ~np.isfinite(secant), 0.5 * (lo + hi), np.clip(secant, lo + 0.01 * width, hi - 0.01 * width))
+        w = ((trial - lo) / np.where(width == 0, 1, width))[:, None]
+        idx = np.flatnonzero(active)
+        st, v_t, mu = _evaluate(model, period, solver, newton, _params_at(lines, axis, line[idx], trial[idx], i[idx]),
+                                ((1 - w) * v_lo + w * v_hi)[idx])
+        failed = st != Status.OK
+        state[idx[failed]] = st[failed]
+        good = idx[~failed]
+        f_t = indicators(mu[~failed])[np.arange(len(good)), column[good]]
+        same_lo = np.sign(f_t) == np.sign(f_lo[good])
+        for j, g in enumerate(good):
+            if same_lo[j]:
+                lo[g], f_lo[g], v_lo[g] = trial[g], f_t[j], v_t[~failed][j]
+                f_hi[g] *= 0.5 if side[g] == 1 else 1.0
+                side[g] = 1
+            else:
+                hi[g], f_hi[g], v_hi[g] = trial[g], f_t[j], v_t[~failed][j]
+                f_lo[g] *= 0.5 if side[g] == -1 else 1.0
+                side[g] = -1
+    state[state == Status.IN_PROGRESS] = Status.NO_CONVERGENCE
+    mid = 0.5 * (lo + hi)
+    st, v_m, mu_m = _evaluate(model, period, solver, newton, _params_at(lines, axis, line, mid, i), 0.5 * (v_lo + v_hi))
+    out = []
+    for r in range(len(rows)):
+        status = state[r] if state[r] != Status.OK else st[r]
+        if kind[r] == Kind.NEIMARK_SACKER and not _complex_pair_on_circle(mu_m[r]):
+            continue  # a neutral saddle (real mu_i mu_j = 1), not a bifurcation of the cycle
+        out.append({"kind": kind[r], "parameter": mid[r], "line": line[r], "status": status, "v": v_m[r],
+                    "multipliers": mu_m[r], "beyond": Status.OK})
+    return out
+
+
+def _shrink_edges(model, lines, axis, status, v, rows, period, options, solver, newton) -> list[dict]:
+    """Bisection on "the cycle is found, from the found side" at each edge of a line's gaits."""
+    if not rows:
+        return []
+    line = np.array([r[0] for r in rows])
+    ok_i = np.array([r[1] for r in rows])
+    bad_i = np.array([r[2] for r in rows])
+    x = np.asarray(lines[axis], np.float64)
+    good, bad = x[line, ok_i].copy(), x[line, bad_i].copy()
+    v_good = v[line, ok_i].copy()
+    beyond = status[line, bad_i].astype(np.int8)
+    mu_good = np.full(v_good.shape, np.nan, np.complex128)
+    while (np.abs(bad - good) > 2 * options.tol).any():
+        mid = 0.5 * (good + bad)
+        st, v_m, mu = _evaluate(model, period, solver, newton, _params_at(lines, axis, line, mid, ok_i), v_good)
+        found = st == Status.OK
+        good = np.where(found, mid, good)
+        v_good = np.where(found[:, None], v_m, v_good)
+        mu_good = np.where(found[:, None], mu, mu_good)
+        beyond = np.where(found, beyond, st).astype(np.int8)
+        bad = np.where(found, bad, mid)
+    st, v_g, mu_g = _evaluate(model, period, solver, newton, _params_at(lines, axis, line, good, ok_i), v_good)
+    out = []
+    for r in range(len(rows)):
+        real = mu_g[r][np.abs(mu_g[r].imag) < 1e-9].real
+        near_one = real.size and np.min(np.abs(real - 1.0)) < options.fold_window
+        step_failed = beyond[r] not in (Status.NO_CONVERGENCE, Status.NONFINITE, Status.NOT_DIFFERENTIABLE)
+        kind = Kind.FOLD if near_one else Kind.GRAZING if step_failed else Kind.LOST
+        out.append({"kind": kind, "parameter": 0.5 * (good[r] + bad[r]), "line": line[r], "status": st[r],
+                    "v": v_g[r], "multipliers": mu_g[r], "beyond": beyond[r]})
+    return out

@@ -1,0 +1,47 @@
+"""``[analysis] attractors``: resolved with its defaults, bad values refused in one line."""
+
+import pytest
+
+from jaxwalk.sweep import ConfigError, loads_config
+from jaxwalk.sweep.runner import analysis_options
+
+BASE = """
+name = "a"
+model = "simplest"
+[grid]
+gamma = { start = 0.009, stop = 0.016, num = 4 }
+[analysis]
+"""
+
+
+def test_off_by_default_and_fingerprint_unchanged():
+    config = loads_config(BASE)
+    assert config.attractors is None and analysis_options(config).attractors is None
+    assert "attractors" not in config.to_dict()["analysis"]
+
+
+@pytest.mark.parametrize("text,expected", [
+    ("attractors = true", {"max_period": 8, "steps": 200}),
+    ("attractors = { max_period = 4 }", {"max_period": 4, "steps": 200}),
+    ("attractors = { steps = 50, max_period = 16 }", {"max_period": 16, "steps": 50}),
+])
+def test_resolved(text, expected):
+    config = loads_config(BASE + text)
+    assert config.attractors == expected
+    options = analysis_options(config).attractors
+    assert (options.max_period, options.steps) == (expected["max_period"], expected["steps"])
+    assert loads_config(BASE).to_dict() != config.to_dict()
+    assert config.to_dict()["analysis"]["attractors"] == expected
+
+
+@pytest.mark.parametrize("text,message", [
+    ("attractors = 3", "must be true, false or a table"),
+    ("attractors = { max_period = 6 }", "max_period must be a power of two"),
+    ("attractors = { max_period = 0 }", "max_period must be a positive integer"),
+    ("attractors = { steps = 1.5 }", "steps must be a positive integer"),
+    ("attractors = { stesp = 5 }", "unknown key 'stesp'"),
+])
+def test_refused(text, message):
+    with pytest.raises(ConfigError, match=message) as err:
+        loads_config(BASE + text)
+    assert "\n" not in str(err.value) and "[analysis] attractors" in str(err.value)
