@@ -43,12 +43,15 @@ class AnalysisOptions:
             the worker threads (``jaxwalk.workers``).
         step_down: settings of the global-stability test (the paper's h_m);
             ``None`` skips it.
+        global_stability: the gait sensitivity norm and the MFPT
+            (:class:`jaxwalk.global_stability.options.GlobalOptions`); ``None`` skips them.
     """
 
     solver: SolverOptions = SolverOptions()
     newton: NewtonOptions = NewtonOptions()
     chunk_size: int = 256
     step_down: StepDownOptions | None = None
+    global_stability: object | None = None
 
 
 def parameter_grid(model: Walker, fixed: Mapping[str, float], grid: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -417,4 +420,8 @@ def analyse_chunk(
         no_gait = out["status"] != 0  # no h_max without a gait: carry the gait's status
         out["step_down_status"] = np.where(no_gait, out["status"], drops.first_failure.astype(np.int8).reshape(shape))
         out["h_failed"] = drops.failed_at.reshape(shape)
+    if options.global_stability is not None:
+        from jaxwalk.global_stability.sweep import grid_outputs
+
+        out.update(grid_outputs(model, params, gaits, out["status"], options.solver, options.global_stability))
     return out

@@ -17,6 +17,8 @@ SYMBOLS = {
     "cost_of_transport": "cost of transport",
     "step_length": "step length",
     "period": "step period",
+    "gait_sensitivity_norm": "gait sensitivity norm",
+    "mfpt": "MFPT",
 }
 #: What each shows, for titles.
 MEANINGS = {
@@ -26,6 +28,8 @@ MEANINGS = {
     "cost_of_transport": "actuator work per weight and distance",
     "step_length": "distance the stance foot advances per step",
     "period": "duration of one step",
+    "gait_sensitivity_norm": "response of step time and length to floor height (H2 norm)",
+    "mfpt": "mean steps before a fall on random terrain",
 }
 #: The legend text of the stability boundary.
 STABILITY_LIMIT = r"$\lambda_{\max} = 1$ (stability limit)"

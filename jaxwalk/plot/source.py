@@ -20,8 +20,9 @@ from jaxwalk.status import Status
 from jaxwalk.sweep.config import ConfigError
 
 #: The variables drawn by default, in this order, when the dataset has them with values.
-#: ``h_max`` (``[analysis] h_max``) and ``cost_of_transport`` are optional.
-DEFAULT_VARIABLES = ("lambda_max", "h_max", "speed", "cost_of_transport")
+#: ``h_max`` (``[analysis] h_max``), ``cost_of_transport`` and the global-stability
+#: measures (``[analysis] gait_sensitivity``, ``mfpt``) are optional.
+DEFAULT_VARIABLES = ("lambda_max", "h_max", "gait_sensitivity_norm", "mfpt", "speed", "cost_of_transport")
 
 
 class PlotError(ConfigError):

@@ -180,6 +180,10 @@ def build_dataset(
     }
     if config.h_max is not None:
         data_vars.update(step_down_variables(config.h_max, dims, results, units["length"]))
+    if config.global_stability:
+        from jaxwalk.global_stability.sweep import dataset_variables
+
+        data_vars.update(dataset_variables(config.global_stability, dims, results, units))
 
     versions = package_versions()
     attrs = {

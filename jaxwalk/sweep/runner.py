@@ -135,7 +135,7 @@ def run_sweep(
     from jaxwalk.sweep.store import ChunkStore
 
     step_down = config.h_max is not None
-    keys = {**RESULT_KEYS, **({k: False for k in STEP_DOWN_KEYS} if step_down else {})}
+    keys = {**RESULT_KEYS, **({k: False for k in STEP_DOWN_KEYS} if step_down else {}), **_global_keys(config)}
     store = ChunkStore.plan(  # checks a partial run and the disk space; writes nothing
         config, model, target, chunk_size=options.chunk_size, options=_as_attribute(options), result_keys=keys,
         command=command, overwrite=overwrite,
@@ -152,7 +152,8 @@ def run_sweep(
         with bar:
             for index, results in finished:  # each block checked and on disk as soon as it is done
                 shape = tuple(r.stop - r.start for r in store.region(index))
-                store.write(index, check_results(results, shape, n_v, stability=config.stability, step_down=step_down))
+                checked = check_results(results, shape, n_v, stability=config.stability, step_down=step_down)
+                store.write(index, {**checked, **_global_check(results, checked["status"], config)})
                 bar.update(store.points_in(index))
     if seeds is not None:
         from jaxwalk.seedline import dataset_attributes
@@ -183,7 +184,28 @@ def analysis_options(config: SweepConfig):
         from jaxwalk.stepdown import StepDownOptions
 
         step_down = StepDownOptions(dh=config.h_max["step"], count=config.h_max["count"], n_steps=config.h_max["steps"])
-    return dataclasses.replace(base, solver=solver, newton=newton, step_down=step_down)
+    options = dataclasses.replace(base, solver=solver, newton=newton, step_down=step_down)
+    if config.global_stability:  # [analysis] gait_sensitivity / mfpt (jaxwalk.global_stability)
+        from jaxwalk.global_stability.options import global_options
+
+        options = dataclasses.replace(options, global_stability=global_options(config.global_stability))
+    return options
+
+
+def _global_keys(config: SweepConfig) -> dict[str, bool]:
+    if not config.global_stability:
+        return {}
+    from jaxwalk.global_stability.sweep import result_keys
+
+    return result_keys(config.global_stability)
+
+
+def _global_check(results, status, config: SweepConfig) -> dict[str, np.ndarray]:
+    if not config.global_stability:
+        return {}
+    from jaxwalk.global_stability.sweep import check
+
+    return check(results, status, config.global_stability)
 
 
 def _as_attribute(options) -> dict:
