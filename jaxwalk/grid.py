@@ -46,6 +46,8 @@ class AnalysisOptions:
             ``None`` skips it.
         attractors: settings of the attractor search (:mod:`jaxwalk.attractor`);
             ``None`` skips it.
+        global_stability: the gait sensitivity norm and the MFPT
+            (:class:`jaxwalk.global_stability.options.GlobalOptions`); ``None`` skips them.
     """
 
     solver: SolverOptions = SolverOptions()
@@ -53,6 +55,7 @@ class AnalysisOptions:
     chunk_size: int = 256
     step_down: StepDownOptions | None = None
     attractors: AttractorOptions | None = None
+    global_stability: object | None = None
 
 
 def parameter_grid(model: Walker, fixed: Mapping[str, float], grid: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -446,4 +449,8 @@ def analyse_chunk(
         from jaxwalk.attractor import grid_attractors
 
         out.update(grid_attractors(model, params, out, options))
+    if options.global_stability is not None:
+        from jaxwalk.global_stability.sweep import grid_outputs
+
+        out.update(grid_outputs(model, params, gaits, out["status"], options.solver, options.global_stability))
     return out

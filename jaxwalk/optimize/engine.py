@@ -49,7 +49,19 @@ from jaxwalk.step import SolverOptions
 from jaxwalk.walker import Walker
 
 #: Quantities an objective or a held value may name.
-QUANTITIES = ("lambda_max", "speed", "step_length", "period", "cost_of_transport")
+QUANTITIES = ("lambda_max", "speed", "step_length", "period", "cost_of_transport", "gait_sensitivity_norm")
+#: Quantities computed only when the problem names them (:func:`extra_program`).
+EXTRA_QUANTITIES = ("gait_sensitivity_norm",)
+
+
+@functools.lru_cache(maxsize=None)
+def extra_program(model: Walker, names: tuple[str, ...], solver: SolverOptions, newton: NewtonOptions):
+    """``jit(vmap)``: ``(params batch, v0) -> {quantity: (value (B,), gradient (B, n_p))}`` for
+    :data:`EXTRA_QUANTITIES` (the gait sensitivity norm: :mod:`jaxwalk.global_stability.sensitivity_norm`)."""
+    from jaxwalk.global_stability.sensitivity_norm import norm_and_gradient
+
+    one = lambda p, v0: {"gait_sensitivity_norm": norm_and_gradient(model, p, v0, names, solver, newton)}
+    return jax.jit(jax.vmap(one))
 
 
 @functools.lru_cache(maxsize=None)
@@ -150,8 +162,12 @@ class Path(NamedTuple):
     ended_at: np.ndarray
 
 
-def _quantity(sens, name: str):
-    """``(value (S,), gradient (S, n_p))`` of a quantity from a batched Sensitivity."""
+def _quantity(sens, name: str, extra=None):
+    """``(value (S,), gradient (S, n_p))`` of a quantity from a batched Sensitivity
+    (or, for :data:`EXTRA_QUANTITIES`, from ``extra``)."""
+    if name in EXTRA_QUANTITIES:
+        value, grad = extra[name]
+        return np.asarray(value), np.asarray(grad)
     return np.asarray(getattr(sens.metrics, name)), np.asarray(getattr(sens, f"d_{name}"))
 
 
@@ -182,6 +198,8 @@ def optimise(
     target = np.array([problem.hold[h] for h in held], np.float64)
     rows = problem.iterations + 1
     program = sensitivity_program(model, names, solver, newton)
+    wanted = {problem.objective, *held} & set(EXTRA_QUANTITIES)
+    extra_fn = extra_program(model, names, solver, newton) if wanted else None
     fixed = {k: np.broadcast_to(np.asarray(v, np.float64), (n_start,)) for k, v in fixed.items() if k not in names}
 
     opt = make_optimizer(problem)
@@ -192,7 +210,7 @@ def optimise(
 
     out_params = np.full((rows, n_start, n_p), np.nan)
     out_obj = np.full((rows, n_start), np.nan)
-    out_metrics = {q: np.full((rows, n_start), np.nan) for q in QUANTITIES}
+    out_metrics = {q: np.full((rows, n_start), np.nan) for q in QUANTITIES if q not in EXTRA_QUANTITIES or q in wanted}
     out_grad = np.full((rows, n_start, n_p), np.nan)
     out_status = np.zeros((rows, n_start), np.int8)
     out_accepted = np.zeros((rows, n_start), bool)
@@ -210,18 +228,21 @@ def optimise(
         batch = {**{n: jnp.asarray(p[:, i]) for i, n in enumerate(names)}, **{n: jnp.asarray(v) for n, v in fixed.items()}}
         sens = program(batch, jnp.asarray(v0))
         status = np.asarray(sens.status).astype(np.int8)
-        f, df = _quantity(sens, problem.objective)
+        # Newton again from the gait just found: one iteration.
+        v_found = np.where(np.isfinite(np.asarray(sens.metrics.v)), np.asarray(sens.metrics.v), v0)
+        extra = None if extra_fn is None else extra_fn(batch, jnp.asarray(v_found))
+        f, df = _quantity(sens, problem.objective, extra)
         f, df = problem.sign * f, problem.sign * df
         grad_x = df * width  # chain rule into the unit box
         for j, h in enumerate(held):
-            q, dq = _quantity(sens, h)
+            q, dq = _quantity(sens, h, extra)
             c = (q - target[j]) / abs(target[j])
             grad_x = grad_x + ((multipliers[:, j] + problem.penalty * c)[:, None] * dq / abs(target[j])) * width
         ok = status == Status.OK
         out_params[k][active] = p[active]
         out_obj[k][active] = f[active]
-        for q in QUANTITIES:
-            out_metrics[q][k][active] = np.asarray(getattr(sens.metrics, q))[active]
+        for q in out_metrics:
+            out_metrics[q][k][active] = _quantity(sens, q, extra)[0][active]
         out_grad[k][active] = (df)[active]
         out_status[k] = np.where(active, status, final_status)
         out_accepted[k] = active & ok
@@ -240,7 +261,7 @@ def optimise(
         good_x[active & ok] = x[active & ok]
         good_v[active & ok] = np.asarray(sens.metrics.v)[active & ok]
         for j, h in enumerate(held):
-            q = np.asarray(getattr(sens.metrics, h))
+            q = _quantity(sens, h, extra)[0]
             c = (q - target[j]) / abs(target[j])
             dual_step = (k + 1) % problem.dual_every == 0
             multipliers[:, j] = np.where(active & ok & dual_step, multipliers[:, j] + problem.penalty * c, multipliers[:, j])

@@ -93,7 +93,7 @@ def build_dataset(config: OptimizeConfig, model, path: Path, heatmap: xr.Dataset
     """The path (and background) as a self-describing xarray dataset."""
     p = config.problem
     units = output_units(model)
-    q_units = {"lambda_max": "1", "speed": units["speed"], "step_length": units["length"], "period": units["time"], "cost_of_transport": "1"}
+    q_units = {"lambda_max": "1", "speed": units["speed"], "step_length": units["length"], "period": units["time"], "cost_of_transport": "1", "gait_sensitivity_norm": "indicator units per length"}
     dims = ("iteration", "start")
     data = {}
     for i, n in enumerate(p.names):
@@ -103,7 +103,7 @@ def build_dataset(config: OptimizeConfig, model, path: Path, heatmap: xr.Dataset
         data[f"best_{n}"] = (("start",), path.best_params[:, i], {"long_name": f"{n} at the accepted iterate of least merit", "units": spec.units})
     sign = "-" if p.sign < 0 else ""
     data["objective"] = (dims, path.objective, {"long_name": f"objective: {sign}{p.objective} (minimised)", "units": q_units[p.objective]})
-    for q in QUANTITIES:
+    for q in (q for q in QUANTITIES if q in path.metrics):  # the gait sensitivity norm only when asked for
         data[q] = (dims, path.metrics[q], {"long_name": q.replace("_", " "), "units": q_units[q]})
     data["gradient"] = (dims + ("parameter",), path.gradient, {"long_name": "d objective / d parameter", "units": "objective units per parameter unit"})
     flags = flag_attributes()

@@ -19,6 +19,8 @@ SYMBOLS = {
     "period": "step period",
     "attractor_period": "attractor period k [steps]",
     "attractor_rate": r"attractor rate $\lambda_{\max,k}^{1/k}$",
+    "gait_sensitivity_norm": "gait sensitivity norm",
+    "mfpt": "MFPT",
 }
 #: What each shows, for titles.
 MEANINGS = {
@@ -30,6 +32,8 @@ MEANINGS = {
     "period": "duration of one step",
     "attractor_period": "steps per cycle of the gait the walker settles on",
     "attractor_rate": "per-step contraction of the gait the walker settles on",
+    "gait_sensitivity_norm": "response of step time and length to floor height (H2 norm)",
+    "mfpt": "mean steps before a fall on random terrain",
 }
 #: The legend text of the stability boundary.
 STABILITY_LIMIT = r"$\lambda_{\max} = 1$ (stability limit)"

@@ -21,8 +21,11 @@ from jaxwalk.sweep.config import ConfigError
 from jaxwalk.sweep.integrity import check_complete
 
 #: The variables drawn by default, in this order, when the dataset has them with values.
-#: ``h_max`` (``[analysis] h_max``) and ``cost_of_transport`` are optional.
-DEFAULT_VARIABLES = ("lambda_max", "h_max", "speed", "cost_of_transport", "attractor_period", "attractor_rate")
+#: ``h_max`` (``[analysis] h_max``), ``cost_of_transport``, the global-stability
+#: measures (``[analysis] gait_sensitivity``, ``mfpt``) and the attractor's
+#: (``[analysis] attractors``) are optional.
+DEFAULT_VARIABLES = ("lambda_max", "h_max", "gait_sensitivity_norm", "mfpt", "speed", "cost_of_transport",
+                     "attractor_period", "attractor_rate")
 
 
 class PlotError(ConfigError):

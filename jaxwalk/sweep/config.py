@@ -43,7 +43,9 @@ TOP_LEVEL_KEYS = ("name", "model", *SECTIONS)
 AXIS_KEYS = ("start", "stop", "num", "values")
 #: Solver settings passed through to the analysis when set (absent: its defaults).
 SOLVER_KEYS = ("rtol", "atol", "newton_tol", "max_newton_iter")
-ANALYSIS_KEYS = ("stability", "continuation", "seed_axis", "h_max", "attractors", *SOLVER_KEYS)
+#: ``[analysis] gait_sensitivity`` and ``mfpt`` are read by :mod:`jaxwalk.global_stability.options`.
+GLOBAL_STABILITY_KEYS = ("gait_sensitivity", "mfpt")
+ANALYSIS_KEYS = ("stability", "continuation", "seed_axis", "h_max", "attractors", *GLOBAL_STABILITY_KEYS, *SOLVER_KEYS)
 #: Keys of ``[analysis] h_max`` and the :class:`jaxwalk.stepdown.StepDownOptions` fields they set.
 H_MAX_KEYS = {"step": "dh", "count": "count", "steps": "n_steps"}
 
@@ -93,6 +95,8 @@ class SweepConfig:
             count * step``, steps to survive after the drop), or ``None`` when off.
         attractors: the attractor search (``{"max_period": int, "steps": int}``,
             :mod:`jaxwalk.sweep.attractors`), or ``None`` when off.
+        global_stability: the resolved ``[analysis] gait_sensitivity`` and
+            ``mfpt`` that are set (:mod:`jaxwalk.global_stability.options`); ``{}`` when neither is.
         source: where the config came from (a path, or a label).
         text: the TOML source, when read from text.
     """
@@ -108,6 +112,7 @@ class SweepConfig:
     solver: dict[str, float | int] = dataclasses.field(default_factory=dict)
     h_max: dict[str, float | int] | None = None
     attractors: dict[str, int] | None = None
+    global_stability: dict = dataclasses.field(default_factory=dict)
     source: str = "<config>"
     text: str | None = None
 
@@ -147,6 +152,7 @@ class SweepConfig:
                 **({"seed_axis": self.seed_axis} if self.seed_axis is not None else {}),
                 "h_max": dict(self.h_max) if self.h_max is not None else False,
                 **({"attractors": dict(self.attractors)} if self.attractors is not None else {}),
+                **self.global_stability,  # only the keys that are set: fingerprints unchanged without them
                 **self.solver,
             },
         }
@@ -231,6 +237,7 @@ def parse_config(
         axis: _axis_spec(axis, spec, specs, params, model_name, fail) for axis, spec in axes_raw.items()
     }
     stability, continuation, seed_axis, solver, h_max = _analysis(data.get("analysis", {}), list(axis_specs), fail)
+    global_stability = _global_stability(data.get("analysis", {}), fail)
     _check_size(axis_specs, len(model.section_names), max_points, fail, h_max=h_max is not None)
     axes = tuple(_axis(axis, spec) for axis, spec in axis_specs.items())
 
@@ -248,6 +255,7 @@ def parse_config(
         solver=solver,
         h_max=h_max,
         attractors=attractors.parse(data.get("analysis", {}).get("attractors", False), fail),
+        global_stability=global_stability,
         source=source,
         text=text,
     )
@@ -447,6 +455,15 @@ def _h_max(value, fail) -> dict[str, float | int] | None:
         "count": int(table.get("count", defaults.count)),
         "steps": int(table.get("steps", defaults.n_steps)),
     }
+
+
+def _global_stability(table, fail) -> dict:
+    """``[analysis] gait_sensitivity`` and ``mfpt``, resolved (only those set)."""
+    if not any(k in table for k in GLOBAL_STABILITY_KEYS):
+        return {}
+    from jaxwalk.global_stability.options import parse
+
+    return parse(table, fail)
 
 
 # ---------------------------------------------------------------- helpers

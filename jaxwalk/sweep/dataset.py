@@ -183,6 +183,10 @@ def build_dataset(
         data_vars.update(step_down_variables(config.h_max, dims, results, units["length"]))
     if config.attractors is not None:
         data_vars.update(attractors.variables(dims, results))
+    if config.global_stability:
+        from jaxwalk.global_stability.sweep import dataset_variables
+
+        data_vars.update(dataset_variables(config.global_stability, dims, results, units))
 
     versions = package_versions()
     attrs = {

@@ -137,7 +137,7 @@ def run_sweep(
     from jaxwalk.sweep.store import ChunkStore
 
     step_down = config.h_max is not None
-    keys = {**RESULT_KEYS, **({k: False for k in STEP_DOWN_KEYS} if step_down else {})}
+    keys = {**RESULT_KEYS, **({k: False for k in STEP_DOWN_KEYS} if step_down else {}), **_global_keys(config)}
     n_v = len(model.section_names)
     attractor_keys = None if config.attractors is None else attractors.result_keys(config.attractors, n_v)
     keys.update(attractor_keys or {})
@@ -166,7 +166,7 @@ def run_sweep(
                     checked = check_results(results, shape, n_v, stability=config.stability, step_down=step_down)
                     if attractor_keys is not None:
                         checked.update(attractors.check(results, checked["status"], attractor_keys))
-                    store.write(index, checked)
+                    store.write(index, {**checked, **_global_check(results, checked["status"], config)})
                     bar.update(store.points_in(index))
     except KeyboardInterrupt:
         raise SweepInterrupted(interrupted_message(store, config.n_points, command)) from None
@@ -258,8 +258,29 @@ def analysis_options(config: SweepConfig):
         from jaxwalk.stepdown import StepDownOptions
 
         step_down = StepDownOptions(dh=config.h_max["step"], count=config.h_max["count"], n_steps=config.h_max["steps"])
-    return dataclasses.replace(base, solver=solver, newton=newton, step_down=step_down,
-                               attractors=attractors.options(config.attractors))
+    options = dataclasses.replace(base, solver=solver, newton=newton, step_down=step_down,
+                                  attractors=attractors.options(config.attractors))
+    if config.global_stability:  # [analysis] gait_sensitivity / mfpt (jaxwalk.global_stability)
+        from jaxwalk.global_stability.options import global_options
+
+        options = dataclasses.replace(options, global_stability=global_options(config.global_stability))
+    return options
+
+
+def _global_keys(config: SweepConfig) -> dict[str, bool]:
+    if not config.global_stability:
+        return {}
+    from jaxwalk.global_stability.sweep import result_keys
+
+    return result_keys(config.global_stability)
+
+
+def _global_check(results, status, config: SweepConfig) -> dict[str, np.ndarray]:
+    if not config.global_stability:
+        return {}
+    from jaxwalk.global_stability.sweep import check
+
+    return check(results, status, config.global_stability)
 
 
 def _as_attribute(options) -> dict:

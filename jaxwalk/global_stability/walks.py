@@ -1,0 +1,159 @@
+"""Walks of many steps over given or random terrain, batched with ``vmap``.
+
+Every step is the step map (:func:`jaxwalk.step.step_map`) from section
+coordinates, with the ground at its touchdown lowered by that step's drop
+``e_k`` (model length units, vertical; negative: a step-up) below its stance
+foot. A walk ends at its first failed step (a fall, a scuff, ...), whose
+status it keeps.
+
+* :func:`walk_terrain`: a given drop sequence, every step recorded (the gait
+  sensitivity norm's finite-difference check, basins).
+* :func:`steps_to_fall`: i.i.d. ``N(0, sigma^2)`` drops until the first failure
+  or ``max_steps``; :func:`monte_carlo` runs thousands at once and estimates the
+  mean number of completed steps before a fall (the MFPT's direct check, also
+  a user feature: ``jaxwalk.global_stability.monte_carlo``).
+"""
+
+from __future__ import annotations
+
+import functools
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from jaxwalk.status import Status
+from jaxwalk.step import SolverOptions, step_map
+from jaxwalk.walker import Walker
+
+Array = jax.Array
+
+
+class WalkRecord(NamedTuple):
+    """Steps of :func:`walk_terrain`, ``N`` drops (batch shape in front under vmap).
+
+    Attributes:
+        v: ``(N + 1, n_v)`` section state before each step and after the last;
+            after a failure it stays where the walk stopped.
+        time, length: ``(N,)`` each step's duration and length; NaN from the
+            failed step on.
+        status: ``(N,)`` int8 status of each step; from the first failure on, that failure's.
+    """
+
+    v: Array
+    time: Array
+    length: Array
+    status: Array
+
+
+def walk_terrain(model: Walker, params, v0: Array, drops: Array, solver: SolverOptions = SolverOptions()) -> WalkRecord:
+    """Walk from ``v0`` over the drops ``(N,)``, one step each (one walk; vmap it)."""
+    ok = jnp.int8(Status.OK)
+
+    def one(carry, e):
+        v, status = carry
+        v_next, res = step_map(model, v, params, solver, ground_drop=e)
+        alive = status == ok
+        new_status = jnp.where(alive, res.status, status).astype(jnp.int8)
+        good = new_status == ok
+        v_next = jnp.where(good, v_next, v)
+        nan = jnp.nan * res.time
+        return (v_next, new_status), (v_next, jnp.where(good, res.time, nan), jnp.where(good, res.length, nan), new_status)
+
+    _, (vs, time, length, status) = jax.lax.scan(one, (v0, ok), drops)
+    return WalkRecord(jnp.concatenate([v0[None], vs]), time, length, status)
+
+
+class FallResult(NamedTuple):
+    """One random walk of :func:`steps_to_fall`.
+
+    Attributes:
+        steps: int32 steps completed before the first failure (``max_steps`` if none).
+        status: int8 status of the failed step (``OK``: it walked ``max_steps`` steps).
+    """
+
+    steps: Array
+    status: Array
+
+
+def steps_to_fall(
+    model: Walker, params, v0: Array, key: Array, sigma, max_steps: int, solver: SolverOptions = SolverOptions()
+) -> FallResult:
+    """Walk from ``v0`` on i.i.d. ``N(0, sigma^2)`` drops until a failure (one walk; vmap it).
+
+    Step ``k``'s drop is ``sigma * normal(fold_in(key, k))``: a walk's terrain
+    depends only on its key, not on its batch neighbours.
+    """
+    ok = jnp.int8(Status.OK)
+
+    def cond(carry):
+        _, k, status = carry
+        return (status == ok) & (k < max_steps)
+
+    def body(carry):
+        v, k, _ = carry
+        e = sigma * jax.random.normal(jax.random.fold_in(key, k), dtype=v0.dtype)
+        v_next, res = step_map(model, v, params, solver, ground_drop=e)
+        good = res.status == ok
+        return jnp.where(good, v_next, v), k + jnp.where(good, 1, 0), res.status.astype(jnp.int8)
+
+    _, k, status = jax.lax.while_loop(cond, body, (v0, jnp.zeros((), jnp.int32), ok))
+    return FallResult(k, status)
+
+
+class MonteCarlo(NamedTuple):
+    """Steps-to-fall statistics of :func:`monte_carlo`.
+
+    Attributes:
+        steps: ``(n_walks,)`` steps completed by each walk.
+        status: ``(n_walks,)`` how each ended (``OK``: still walking at ``max_steps``).
+        mean: mean steps completed before a fall, counting walks that reached
+            ``max_steps`` at ``max_steps`` (a lower bound if any did).
+        standard_error: ``std(steps) / sqrt(n_walks)``.
+        censored: walks that reached ``max_steps`` without falling.
+    """
+
+    steps: np.ndarray
+    status: np.ndarray
+    mean: float
+    standard_error: float
+    censored: int
+
+
+@functools.lru_cache(maxsize=None)
+def _fall_program(model: Walker, max_steps: int, solver: SolverOptions):
+    # Sub-batches of the model's lockstep batch: each runs as long as its own longest walk.
+    def program(p, v0, keys, sigma):
+        one = lambda key: steps_to_fall(model, p, v0, key, sigma, max_steps, solver)
+        return jax.lax.map(one, keys, batch_size=model.lockstep_batch)
+
+    return jax.jit(program)
+
+
+def monte_carlo(
+    model: Walker,
+    params,
+    v0,
+    sigma: float,
+    n_walks: int = 2000,
+    max_steps: int = 10_000,
+    seed: int = 0,
+    solver: SolverOptions = SolverOptions(),
+) -> MonteCarlo:
+    """``n_walks`` random walks from ``v0`` (the gait's fixed point), all at once.
+
+    Walk ``i`` uses the key ``fold_in(PRNGKey(seed), i)``. One program (one
+    core), walks in lockstep in sub-batches of ``model.lockstep_batch``.
+    """
+    keys = jax.vmap(lambda i: jax.random.fold_in(jax.random.PRNGKey(seed), i))(jnp.arange(n_walks))
+    p = {k: jnp.asarray(v, jnp.float64) for k, v in params.items()}
+    out = _fall_program(model, int(max_steps), solver)(p, jnp.asarray(v0, jnp.float64), keys, jnp.asarray(sigma, jnp.float64))
+    steps, status = np.asarray(out.steps), np.asarray(out.status)
+    return MonteCarlo(
+        steps=steps,
+        status=status,
+        mean=float(steps.mean()),
+        standard_error=float(steps.std(ddof=1) / np.sqrt(n_walks)),
+        censored=int((status == Status.OK).sum()),
+    )
