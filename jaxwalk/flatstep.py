@@ -101,9 +101,13 @@ def locate_event(guard, lower, upper, g_lower, g_upper, iterations: int, tol: fl
         g, dg = jax.jvp(guard, (t,), (jnp.ones_like(t),))
         neg = g <= 0
         lo, hi = jnp.where(neg, lo, t), jnp.where(neg, t, hi)
-        newton = t - g / jnp.where(dg == 0, 1.0, dg)
+        step = g / jnp.where(dg == 0, 1.0, dg)
+        newton = t - step
         inside = (dg != 0) & (newton > lo) & (newton < hi)
-        nxt = jnp.where(g == 0, t, jnp.where(inside, newton, 0.5 * (lo + hi)))
+        # A converged Newton step is below one ulp of t: t itself is a bracket
+        # end then, and "inside" fails; bisecting there would throw the root away.
+        done = (g == 0) | ((dg != 0) & (jnp.abs(step) < tol * (1.0 + jnp.abs(t))))
+        nxt = jnp.where(done, newton, jnp.where(inside, newton, 0.5 * (lo + hi)))
         return lo, hi, nxt, jnp.abs(nxt - t)
 
     lo, hi, t_k, last = jax.lax.fori_loop(0, iterations, body, (lower, upper, t0, jnp.full_like(t0, jnp.inf)))
