@@ -101,9 +101,13 @@ def locate_event(guard, lower, upper, g_lower, g_upper, iterations: int, tol: fl
         g, dg = jax.jvp(guard, (t,), (jnp.ones_like(t),))
         neg = g <= 0
         lo, hi = jnp.where(neg, lo, t), jnp.where(neg, t, hi)
-        newton = t - g / jnp.where(dg == 0, 1.0, dg)
+        step = g / jnp.where(dg == 0, 1.0, dg)
+        newton = t - step
         inside = (dg != 0) & (newton > lo) & (newton < hi)
-        nxt = jnp.where(g == 0, t, jnp.where(inside, newton, 0.5 * (lo + hi)))
+        # A converged Newton step is below one ulp of t: t itself is a bracket
+        # end then, and "inside" fails; bisecting there would throw the root away.
+        done = (g == 0) | ((dg != 0) & (jnp.abs(step) < tol * (1.0 + jnp.abs(t))))
+        nxt = jnp.where(done, newton, jnp.where(inside, newton, 0.5 * (lo + hi)))
         return lo, hi, nxt, jnp.abs(nxt - t)
 
     lo, hi, t_k, last = jax.lax.fori_loop(0, iterations, body, (lower, upper, t0, jnp.full_like(t0, jnp.inf)))
@@ -165,6 +169,33 @@ def _attempt(model, params, opts: SolverOptions, solver, controller, c: _Carry, 
     return _Attempt(t1, y1, f1, g1, keep, sg(t_next1 - t_next0), (e1, e2), dense)
 
 
+def _close_phase(model: Walker, params, opts: SolverOptions, c: _Carry, go_on: _Carry, t_ev, y_ev, result) -> _Carry:
+    """A lane whose phase ended at ``(t_ev, y_ev)`` with diffrax ``result``: the
+    reset, the statuses, and a fresh start of the next phase from ``go_on``."""
+    end = close_phase(model, params, t_ev, y_ev, result, c.phase, c.ctx, c.n_events, opts)
+    g = _min_guard(model, params, end.t_event, end.y_next, end.phase_next, end.ctx_next)
+    one = jnp.ones((), c.t.dtype)
+    return go_on._replace(
+        t=end.t_event,
+        dt=jnp.full((), FIRST_STEP, c.t.dtype),
+        y=end.y_next,
+        phase=end.phase_next,
+        ctx=end.ctx_next,
+        g=g,
+        fresh=jnp.asarray(True),
+        pid=(one, one),
+        n_steps=jnp.zeros_like(c.n_steps),
+        t_start=end.t_event,
+        y_start=end.y_next,
+        length=c.length + end.shift,
+        status=end.status,
+        n_events=end.n_events,
+        # Work over the phase, from its start to the event (before the reset,
+        # which may relabel the legs); impacts do not move the joints.
+        work=c.work + model.actuator_work(c.y_start, end.y_event, params),
+    )
+
+
 def _advance(model: Walker, params, opts: SolverOptions, c: _Carry) -> _Carry:
     """The loop body: one integrator step for the lane, and its phase's end if it came."""
     solver = _solver(opts)
@@ -216,30 +247,7 @@ def _advance(model: Walker, params, opts: SolverOptions, c: _Carry) -> _Carry:
         work=c.work,
     )
 
-    def close():
-        end = close_phase(model, params, t_ev, y_ev, result, c.phase, c.ctx, c.n_events, opts)
-        g = _min_guard(model, params, end.t_event, end.y_next, end.phase_next, end.ctx_next)
-        one = jnp.ones((), c.t.dtype)
-        return go_on._replace(
-            t=end.t_event,
-            dt=jnp.full((), FIRST_STEP, c.t.dtype),
-            y=end.y_next,
-            phase=end.phase_next,
-            ctx=end.ctx_next,
-            g=g,
-            fresh=jnp.asarray(True),
-            pid=(one, one),
-            n_steps=jnp.zeros_like(c.n_steps),
-            t_start=end.t_event,
-            y_start=end.y_next,
-            length=c.length + end.shift,
-            status=end.status,
-            n_events=end.n_events,
-            # Work over the phase, from its start to the event (before the reset,
-            # which may relabel the legs); impacts do not move the joints.
-            work=c.work + model.actuator_work(c.y_start, end.y_event, params),
-        )
-
+    close = lambda: _close_phase(model, params, opts, c, go_on, t_ev, y_ev, result)
     closed = jax.lax.cond(eqxi.unvmap_any(ended), close, lambda: go_on)
     return jax.tree_util.tree_map(lambda x, y: jnp.where(ended, x, y), closed, go_on)
 

@@ -1,0 +1,104 @@
+"""The flat step engine (jaxwalk.flatstep) against the nested one and against truth.
+
+Cheap walkers only (simplest, compass): the flat-foot walker on the flat
+engine is covered by running tests/test_flatfoot.py with JAXWALK_ENGINE=flat.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from jaxwalk.flatstep import implicit_root, locate_event
+from jaxwalk.gait import find_gait
+from jaxwalk.models import get_model
+from jaxwalk.status import Status
+from jaxwalk.step import SolverOptions, step_map
+
+FLAT = SolverOptions(engine="flat")
+NESTED = SolverOptions(engine="nested")
+SIMPLEST = get_model("simplest")
+
+
+def test_locate_event_root_and_implicit_tangent():
+    """Root of t^2 - p in [0, 2] and its derivative 1 / (2 sqrt p), from the implicit step."""
+
+    def root(p):
+        guard = lambda t: p - t * t  # positive before the root, as guards are
+        frozen = lambda t: jax.lax.stop_gradient(p) - t * t
+        t_k, ok = locate_event(frozen, 0.0, 2.0, jax.lax.stop_gradient(p), jax.lax.stop_gradient(p) - 4.0, 8, 1e-13)
+        return implicit_root(guard, t_k), ok
+
+    (t, ok), (dt, _) = jax.jvp(root, (jnp.asarray(2.0),), (jnp.asarray(1.0),))
+    assert bool(ok)
+    np.testing.assert_allclose(t, np.sqrt(2.0), rtol=1e-14)
+    np.testing.assert_allclose(dt, 0.5 / np.sqrt(2.0), rtol=1e-12)
+
+
+@pytest.fixture(scope="module")
+def simplest_maps():
+    p = SIMPLEST.default_params()
+    v = SIMPLEST.initial_guess(p)
+    out = {}
+    for name, opts in (("flat", FLAT), ("nested", NESTED)):
+        fn = jax.jit(lambda v, opts=opts: step_map(SIMPLEST, v, p, opts))
+        jac = jax.jit(jax.jacfwd(lambda v, opts=opts: step_map(SIMPLEST, v, p, opts)[0]))
+        out[name] = (fn(v), jac(v))
+    return p, v, out
+
+
+def test_flat_equals_nested_step_map(simplest_maps):
+    """Same step, both engines: the same events and the map to integration accuracy."""
+    _, _, out = simplest_maps
+    (v_f, r_f), j_f = out["flat"]
+    (v_n, r_n), j_n = out["nested"]
+    assert int(r_f.status) == int(r_n.status) == Status.OK
+    assert int(r_f.n_events) == int(r_n.n_events)
+    np.testing.assert_allclose(v_f, v_n, atol=1e-8)
+    np.testing.assert_allclose(r_f.time, r_n.time, atol=1e-7)
+    np.testing.assert_allclose(j_f, j_n, rtol=1e-5, atol=1e-5)
+
+
+def test_flat_jacobian_matches_central_differences(simplest_maps):
+    """Forward mode through the flat loop (event-time terms included) against
+    central differences of its own map at a tight tolerance."""
+    p, v, _ = simplest_maps
+    tight = SolverOptions(engine="flat", rtol=1e-12, atol=1e-12)
+    f = jax.jit(lambda v: step_map(SIMPLEST, v, p, tight)[0])
+    jac = np.asarray(jax.jit(jax.jacfwd(lambda v: step_map(SIMPLEST, v, p, tight)[0]))(v))
+    h = 1e-5
+    cols = []
+    for i in range(v.shape[0]):
+        e = jnp.zeros_like(v).at[i].set(h)
+        # Richardson: the map's second derivatives are ~1e3 near the separatrix.
+        d1 = (f(v + e) - f(v - e)) / (2 * h)
+        d2 = (f(v + 2 * e) - f(v - 2 * e)) / (4 * h)
+        cols.append(np.asarray((4 * d1 - d2) / 3))
+    np.testing.assert_allclose(jac, np.stack(cols, axis=1), rtol=1e-6, atol=1e-6)
+
+
+def test_flat_vmap_equals_single_runs_and_failures_are_statuses():
+    """A batch on the flat engine, each lane in its own phase, equals one run per config;
+    an uphill slope fails with the nested engine's status."""
+    gammas = jnp.array([0.004, 0.009, 0.014, -0.01])
+    def search(g, opts):
+        p = {**SIMPLEST.default_params(), "gamma": g}
+        return find_gait(SIMPLEST, p, SIMPLEST.initial_guess(p), opts)
+
+    batch = jax.jit(jax.vmap(lambda g: search(g, FLAT)))(gammas)
+    one = jax.jit(lambda g: search(g, FLAT))
+    for i, g in enumerate(gammas):
+        single = one(g)
+        assert int(single.status) == int(batch.status[i])
+        np.testing.assert_allclose(single.lambda_max, batch.lambda_max[i], atol=1e-9)
+    nested = jax.jit(lambda g: search(g, NESTED))(gammas[-1])
+    assert int(batch.status[-1]) == int(nested.status) != Status.OK
+    assert np.isnan(batch.lambda_max[-1])
+
+
+def test_unknown_engine_is_an_error():
+    p = SIMPLEST.default_params()
+    with pytest.raises(ValueError, match="engine"):
+        step_map(SIMPLEST, SIMPLEST.initial_guess(p), p, SolverOptions(engine="fast"))
