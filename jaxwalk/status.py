@@ -29,6 +29,8 @@ class Status(enum.IntEnum):
     SOLVER_FAILED = 10
     KNEE_BUCKLED = 11
     NOT_DIFFERENTIABLE = 12
+    # 13 is reserved (NOT_COMPUTED, another branch).
+    SLIPPING = 14
     IN_PROGRESS = 127  # internal: a step still running; never written to a dataset
 
 
@@ -47,6 +49,7 @@ STATUS_MEANINGS: dict[Status, str] = {
     Status.SOLVER_FAILED: "the ODE solver failed (step-size underflow or max steps)",
     Status.KNEE_BUCKLED: "a locked stance knee would have to pull to stay straight",
     Status.NOT_DIFFERENTIABLE: "gait found, but no derivative: a fold (I - J singular) or a defective dominant eigenvalue",
+    Status.SLIPPING: "slipping: a ground contact force or impulse left its friction cone",
     Status.IN_PROGRESS: "internal: step in progress",
 }
 
