@@ -29,6 +29,7 @@ STATUS_COLORS: dict[int, str] = {
     Status.SOLVER_FAILED: "#7f7f7f",
     Status.KNEE_BUCKLED: "#ff9896",
     Status.NOT_DIFFERENTIABLE: "#dbb98c",
+    Status.SLIPPING: "#17becf",
 }
 #: Fallback for a code this version does not know.
 UNKNOWN_COLOR = "#5c3c00"
@@ -47,6 +48,7 @@ STATUS_MARKERS: dict[int, str] = {
     Status.SOLVER_FAILED: "P",
     Status.KNEE_BUCKLED: "h",
     Status.NOT_DIFFERENTIABLE: "p",
+    Status.SLIPPING: "d",
 }
 
 
