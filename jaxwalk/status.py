@@ -30,6 +30,7 @@ class Status(enum.IntEnum):
     KNEE_BUCKLED = 11
     NOT_DIFFERENTIABLE = 12
     NOT_COMPUTED = 13  # a store's fill value: the point's chunk was never written
+    SLIPPING = 14
     NO_PERIODIC_ATTRACTOR = 15
     CYCLE_NOT_FOUND = 16
     IN_PROGRESS = 127  # internal: a step still running; never written to a dataset
@@ -51,6 +52,7 @@ STATUS_MEANINGS: dict[Status, str] = {
     Status.KNEE_BUCKLED: "a locked stance knee would have to pull to stay straight",
     Status.NOT_DIFFERENTIABLE: "gait found, but no derivative: a fold (I - J singular) or a defective dominant eigenvalue",
     Status.NOT_COMPUTED: "not computed: this point's chunk was not written (an unfinished or damaged store)",
+    Status.SLIPPING: "slipping: a ground contact force or impulse left its friction cone",
     Status.NO_PERIODIC_ATTRACTOR: (
         "no periodic attractor: walked from the unstable gait's neighbourhood, the walker kept walking "
         "without repeating at any tested period (quasi-periodic, chaotic, longer period, or too slow to settle)"

@@ -30,6 +30,7 @@ STATUS_COLORS: dict[int, str] = {
     Status.KNEE_BUCKLED: "#ff9896",
     Status.NOT_DIFFERENTIABLE: "#dbb98c",
     Status.NOT_COMPUTED: "#ffffff",  # blank: nothing there yet
+    Status.SLIPPING: "#17becf",
 }
 #: Fallback for a code this version does not know.
 UNKNOWN_COLOR = "#5c3c00"
@@ -49,6 +50,7 @@ STATUS_MARKERS: dict[int, str] = {
     Status.KNEE_BUCKLED: "h",
     Status.NOT_DIFFERENTIABLE: "p",
     Status.NOT_COMPUTED: "_",
+    Status.SLIPPING: "d",
 }
 
 

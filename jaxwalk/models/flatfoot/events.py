@@ -24,6 +24,16 @@ The swing knee has an extension stop at flexion ``knee_lock`` and a latch
   impact onto ankle 2 pinned with leg 1 on its toe; legs swap, the frame moves
   to the new stance ankle, and the step ends.
 
+* ``slip`` / ``knee_buckle`` (a ground force leaves its friction cone; a knee
+  on its stop alone, ``stance_latch = 0``, would have to pull): ``SLIPPING``,
+  ``KNEE_BUCKLED``.
+* ``heel_extremum`` / ``toe_extremum``: bookkeeping of the swing foot's minimum
+  clearance (:mod:`clearance`); no phase change.
+
+With ``knee_gate = 1`` knee-strike closes the latch only once the swing ankle
+has passed the stance ankle; before that the knee rests on its stop unlatched,
+and the latch closes as the ankle passes (a ``knee_strike`` with no impulse).
+
 After every transition the new phase is checked on entry: a toe that would pull
 on the ground leaves at once, a released knee whose stop would pull flexes at
 once (both logged as events), and a failure guard already non-positive sets its
@@ -37,14 +47,14 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-from jaxwalk.models.flatfoot import forces
+from jaxwalk.models.flatfoot import clearance, forces
 from jaxwalk.models.flatfoot import geometry as geo
 from jaxwalk.models.flatfoot import phases as ph
 from jaxwalk.status import Status
 from jaxwalk.walker import Transition
 
 (UNLOCK, KNEE_FLEX, TOE_OFF, KNEE_STRIKE, HEEL_STRIKE, TOE_STRIKE,
- FALL, LEG_RANGE, STALL, RUNNING, SCUFF) = range(11)  # fmt: skip
+ FALL, LEG_RANGE, STALL, RUNNING, SCUFF, SLIP, BUCKLE, HEEL_EXTREMUM, TOE_EXTREMUM) = range(15)  # fmt: skip
 GUARD_NAMES = (
     "unlock",
     "knee_flex",
@@ -57,9 +67,21 @@ GUARD_NAMES = (
     "stall",
     "running",
     "scuff",
+    "slip",
+    "knee_buckle",
+    "heel_extremum",
+    "toe_extremum",
 )
 #: Status of each failure guard, in order of precedence.
-FAILURES = {FALL: Status.FELL, LEG_RANGE: Status.FELL, STALL: Status.STALLED, RUNNING: Status.RUNNING, SCUFF: Status.SCUFFING}
+FAILURES = {
+    FALL: Status.FELL,
+    LEG_RANGE: Status.FELL,
+    STALL: Status.STALLED,
+    RUNNING: Status.RUNNING,
+    SCUFF: Status.SCUFFING,
+    SLIP: Status.SLIPPING,
+    BUCKLE: Status.KNEE_BUCKLED,
+}
 
 #: Hip height (normal to the slope, leg lengths) below which the walker has fallen.
 FALL_HEIGHT = 0.5
@@ -67,12 +89,8 @@ FALL_HEIGHT = 0.5
 SEGMENT_LIMIT = 1.5
 #: Largest swing-knee flexion (rad).
 FLEXION_LIMIT = 2.5
-#: A contact impulse more tensile than this (units M sqrt(g L)) pulls the foot off
-#: the ground. Smaller ones are absorbed by the static load the foot carries
-#: during a real collision: about body weight times 3 ms (0.01 sqrt(L/g) for a
-#: 0.9 m leg); without a margin a gait whose heel lands at zero speed sits on a
-#: knife edge. (The paper does not constrain the stance foot in its impacts at all.)
-IMPULSE_TOL = 1e-2
+#: Below this (units M sqrt(g L)) an impact is no impact: numerical zero.
+IMPULSE_FLOOR = 1e-12
 
 _CHECKED_IMPULSES = jnp.array([0, 1, 3])
 _STOP_PHASES = jnp.array([True, False, False, True, False])  # knee 2 locked, may release
@@ -89,11 +107,16 @@ def _ground_under(x, ctx, params):
     )
 
 
+def _cone(force, params):
+    """``mu N - |T|`` of a contact force ``(T, N)``: positive inside the friction cone."""
+    return params["mu"] * force[1] - jnp.abs(force[0])
+
+
 def guard_values(model, t, y, params, phase, ctx):
-    """``(11,)`` guard values in the order of :data:`GUARD_NAMES`."""
+    """``(15,)`` guard values in the order of :data:`GUARD_NAMES`."""
     q, qd = model.split(y)
     _, lam = model.dynamics(y, params, phase, ctx)
-    stance, _, toe, _ = forces.contact_reactions(q, lam, params, phase, ctx)
+    stance, _, toe, heel = forces.contact_reactions(q, lam, params, phase, ctx)
     gn, knee_state = ctx[ph.C["ground_next"]], ctx[ph.C["knee_2"]]
     _, a_t = geo.foot_arms(params)
     one = jnp.ones_like(t)
@@ -102,9 +125,15 @@ def guard_values(model, t, y, params, phase, ctx):
     unlock = jnp.where(on_stop & (knee_state == ph.LATCHED), params["delay"] - t, one)
     # The knee row's multiplier is a torque opening the knee: positive while the stop pushes.
     knee_flex = jnp.where(on_stop & (knee_state == ph.RELEASED), lam[ph.KNEE_2], one)
-    toe_off = jnp.where(ph.ON_TOE[phase], toe[1], one)
+    # The toe leaves when its force reaches the edge of the friction cone (at the
+    # latest when it stops pushing): a toe that would slide is unloaded and lifts.
+    toe_off = jnp.where(ph.ON_TOE[phase], _cone(toe, params), one)
     flex, flex_rate = geo.flexion(q, 2), geo.flexion(qd, 2)
     knee = jnp.where(ph.KNEE_2_FREE[phase] & (flex_rate < 0.0), flex - params["knee_lock"], one)
+    # The paper's mid-stance gate: a knee resting on its stop, unlatched, latches
+    # when its ankle passes the stance ankle.
+    gated = (params["knee_gate"] > 0.5) & (phase == ph.LOCKED_SWING) & (knee_state == ph.RELEASED)
+    knee = jnp.where(gated, ctx[ph.C["x_ankle_1"]] - geo.ankle(q, params, 2)[0], knee)
 
     in_air = (phase == ph.SWING) | (phase == ph.LOCKED_SWING)
     heel_pt, toe_pt = geo.free_foot(q, params, 2)
@@ -119,11 +148,24 @@ def guard_values(model, t, y, params, phase, ctx):
     # The stance foot must push. The heel of foot 2 may pull in heel pivot: the
     # paper's impacts are "fully inelastic, no slip and no bounce" (assumption 4).
     running = stance[1]
-    clearance = jnp.minimum(
+    clearance_ = jnp.minimum(
         heel_pt[1] - _ground_under(heel_pt[0], ctx, params), toe_pt[1] - _ground_under(toe_pt[0], ctx, params)
     )
-    scuff = jnp.where(in_air, clearance + params["scuff_tol"], one)
-    return jnp.stack([unlock, knee_flex, toe_off, knee, heel_strike, toe_strike, fall, leg_range, stall, running, scuff])
+    scuff = jnp.where(in_air, clearance_ + params["scuff_tol"], one)
+    slip = jnp.minimum(_cone(stance, params), jnp.where(ph.ON_HEEL[phase], _cone(heel, params), one))
+    # A knee on its extension stop (no latch) holds only while the stop pushes:
+    # the stance knee always, the landing knee in heel pivot.
+    no_latch = params["stance_latch"] < 0.5
+    loaded_2 = jnp.where(phase == ph.HEEL_PIVOT, lam[ph.KNEE_2], one)
+    buckle = jnp.where(no_latch, jnp.minimum(lam[ph.KNEE_1], loaded_2), one)
+    extrema = clearance.guards(q, qd, params, phase, ctx, _ground_under)
+    return jnp.concatenate(
+        [
+            jnp.stack([unlock, knee_flex, toe_off, knee, heel_strike, toe_strike, fall, leg_range, stall, running]),
+            jnp.stack([scuff, slip, buckle]),
+            extrema,
+        ]
+    )
 
 
 def _log(ctx, guard, t, time_entry=None):
@@ -186,6 +228,35 @@ def normal_impulses(q, impulses, params, ctx):
     )
 
 
+def impulse_failures(q, impulses, params, ctx):
+    """``(pulls, slides)`` of an impact's contact impulses, scaled to the impact.
+
+    Foot 1 flat, toe 2 and the landing ankle 2 must push; foot 1 and the landing
+    ankle must stay inside the friction cone. The heel of foot 2 is held without
+    bounce (the paper's assumption 4), and its impulse, carried by the massless
+    foot, lies along the foot, so its cone is checked on the force that follows
+    (the ``slip`` guard). Toe 1 starts flat, so its impulse lies along the ground.
+    A knee without a latch (``stance_latch = 0``) must not be pulled by its stop.
+    """
+    normal = normal_impulses(q, impulses, params, ctx)
+    scale = params["impulse_tol"] * jnp.max(jnp.abs(normal)) + IMPULSE_FLOOR
+    pulls = jnp.min(normal[_CHECKED_IMPULSES]) < -scale
+    knees = jnp.minimum(impulses[ph.KNEE_1], impulses[ph.KNEE_2])
+    pulls = pulls | ((params["stance_latch"] < 0.5) & (knees < -scale))
+    cone = lambda tx, ny: params["mu"] * ny - jnp.abs(tx)
+    slides = jnp.minimum(
+        cone(impulses[ph.ANKLE_1_X], impulses[ph.ANKLE_1_Y]), cone(impulses[ph.ANKLE_2_X], impulses[ph.ANKLE_2_Y])
+    ) < -scale
+    return pulls, slides
+
+
+def _latch_after_strike(q, params, ctx):
+    """The swing knee's latch after knee-strike: closed, unless the paper's gate
+    (``knee_gate``) holds it open until the swing ankle passes the stance ankle."""
+    passed = geo.ankle(q, params, 2)[0] > ctx[ph.C["x_ankle_1"]]
+    return jnp.where((params["knee_gate"] < 0.5) | passed, ph.RELATCHED, ph.RELEASED)
+
+
 def trailing_heel_sinks(y, params, ctx):
     """True if the trailing foot, flat on its toe circle, would turn heel-down (into the ground)."""
     q, qd = y[:6], y[6:]
@@ -213,6 +284,30 @@ def swap_legs(y, params, ctx):
     return jnp.concatenate([q_new, qd[perm]]), ctx_new, shift
 
 
+def _event_status(guard, q, qd, params, ctx, pulls, slides):
+    """Status after ``guard`` fired (``IN_PROGRESS`` if the walk goes on); ``pulls``,
+    ``slides``: the impact's impulse checks (:func:`impulse_failures`)."""
+    is_ = lambda g: guard == g
+    heel_velocity = jax.jvp(lambda q_: geo.free_foot(q_, params, 2)[0], (q,), (qd,))[1]
+    status = jnp.select(
+        [is_(FALL) | is_(LEG_RANGE), is_(STALL), is_(RUNNING), is_(SCUFF)],
+        [jnp.int8(Status.FELL), jnp.int8(Status.STALLED), jnp.int8(Status.RUNNING), jnp.int8(Status.SCUFFING)],
+        jnp.int8(Status.IN_PROGRESS),
+    )
+    released = is_(HEEL_STRIKE) & (ctx[ph.C["knee_2"]] == ph.RELEASED)
+    status = jnp.where(released, jnp.int8(Status.SHANK_RELEASING), status)
+    # The heel gate opened on a heel already below ground and rising: a scuff, not a strike.
+    status = jnp.where(is_(HEEL_STRIKE) & (heel_velocity[1] >= 0.0), jnp.int8(Status.SCUFFING), status)
+    status = jnp.where((status == Status.IN_PROGRESS) & pulls, jnp.int8(Status.RUNNING), status)
+    status = jnp.where((status == Status.IN_PROGRESS) & slides, jnp.int8(Status.SLIPPING), status)
+    status = jnp.select(
+        [status != Status.IN_PROGRESS, is_(SLIP), is_(BUCKLE)],
+        [status, jnp.int8(Status.SLIPPING), jnp.int8(Status.KNEE_BUCKLED)],
+        status,
+    )
+    return status
+
+
 def on_event(model, guard, t, y, params, phase, ctx):
     """The reset after ``guard`` crossed zero in ``phase`` (see the module docstring)."""
     q, qd = model.split(y)
@@ -220,25 +315,29 @@ def on_event(model, guard, t, y, params, phase, ctx):
     from_push_off = phase == ph.PUSH_OFF
     heel_pt, _ = geo.free_foot(q, params, 2)
     knee = ph.C["knee_2"]
+    extremum = jnp.select([is_(HEEL_EXTREMUM), is_(TOE_EXTREMUM)], [0, 1], -1)
     ctx_new = jnp.select(
-        [is_(UNLOCK), is_(KNEE_FLEX), is_(TOE_OFF), is_(KNEE_STRIKE), is_(HEEL_STRIKE)],
+        [is_(UNLOCK), is_(KNEE_FLEX), is_(TOE_OFF), is_(KNEE_STRIKE), is_(HEEL_STRIKE), extremum >= 0],
         [
             _log(ctx, UNLOCK, t, "t_unlock").at[knee].set(ph.RELEASED),
             _log(ctx, KNEE_FLEX, t, "t_knee_flex"),
             _log(ctx, TOE_OFF, t, "t_toe_off"),
-            _log(ctx, KNEE_STRIKE, t, "t_knee_strike").at[knee].set(ph.RELATCHED),
+            _log(ctx, KNEE_STRIKE, t, "t_knee_strike").at[knee].set(_latch_after_strike(q, params, ctx)),
             _log(ctx, HEEL_STRIKE, t, "t_heel_strike").at[ph.C["x_heel_2"]].set(heel_pt[0]),
+            ctx,  # extrema of the swing foot's height are not logged: they are not phases
         ],
         _log(ctx, guard, t),
     )
+    in_air = (phase == ph.SWING) | (phase == ph.LOCKED_SWING)
     next_phase = jnp.select(
-        [is_(UNLOCK), is_(KNEE_FLEX), is_(TOE_OFF), is_(KNEE_STRIKE), is_(HEEL_STRIKE)],
+        [is_(UNLOCK), is_(KNEE_FLEX), is_(TOE_OFF), is_(KNEE_STRIKE), is_(HEEL_STRIKE), extremum >= 0],
         [
             phase,
             jnp.where(from_push_off, ph.SHANK_RELEASE, ph.SWING),
             jnp.where(from_push_off, ph.LOCKED_SWING, ph.SWING),
-            jnp.where(phase == ph.SWING, ph.LOCKED_SWING, ph.PUSH_OFF),
+            jnp.where(in_air, ph.LOCKED_SWING, ph.PUSH_OFF),
             ph.HEEL_PIVOT,
+            phase,
         ],
         ph.PUSH_OFF,
     ).astype(jnp.int32)
@@ -250,22 +349,9 @@ def on_event(model, guard, t, y, params, phase, ctx):
         jnp.zeros(ph.N_CONSTRAINTS),
     )
     y_imp, impulses = model.apply_impact(y, params, ctx_new, mask)
-    # Foot 1 flat, toe 2 and the landing ankle 2 must push. The heel of foot 2 is
-    # held without bounce (the paper's assumption 4), and toe 1 starts flat, so
-    # its impulse lies along the ground.
-    pulls = jnp.min(normal_impulses(q, impulses, params, ctx_new)[_CHECKED_IMPULSES]) < -IMPULSE_TOL
+    pulls, slides = impulse_failures(q, impulses, params, ctx_new)
 
-    heel_velocity = jax.jvp(lambda q_: geo.free_foot(q_, params, 2)[0], (q,), (qd,))[1]
-    status = jnp.select(
-        [is_(FALL) | is_(LEG_RANGE), is_(STALL), is_(RUNNING), is_(SCUFF)],
-        [jnp.int8(Status.FELL), jnp.int8(Status.STALLED), jnp.int8(Status.RUNNING), jnp.int8(Status.SCUFFING)],
-        jnp.int8(Status.IN_PROGRESS),
-    )
-    released = is_(HEEL_STRIKE) & (ctx[knee] == ph.RELEASED)
-    status = jnp.where(released, jnp.int8(Status.SHANK_RELEASING), status)
-    # The heel gate opened on a heel already below ground and rising: a scuff, not a strike.
-    status = jnp.where(is_(HEEL_STRIKE) & (heel_velocity[1] >= 0.0), jnp.int8(Status.SCUFFING), status)
-    status = jnp.where((status == Status.IN_PROGRESS) & pulls, jnp.int8(Status.RUNNING), status)
+    status = _event_status(guard, q, qd, params, ctx, pulls, slides)
 
     # Toe-strike ends the step: swap the legs and move the frame.
     done = is_(TOE_STRIKE)
@@ -274,6 +360,7 @@ def on_event(model, guard, t, y, params, phase, ctx):
     ctx_next = jnp.where(done, ctx_swap, ctx_new)
 
     next_phase, ctx_next, guards = settle(model, t, y_next, params, next_phase, ctx_next)
+    ctx_next = clearance.update(ctx_next, y_next, params, phase, next_phase, extremum, _ground_under)
     status = jnp.where(status == Status.IN_PROGRESS, entry_failure(guards, next_phase), status)
     # The new trailing foot leaves flat: its heel must rise, not sink (a double flat stance is not modelled).
     sinks = done & (next_phase == ph.PUSH_OFF) & trailing_heel_sinks(y_next, params, ctx_next)

@@ -5,7 +5,8 @@ its angle ``phi(q)`` fixed by contact (0 when flat, by the ankle's position when
 pivots on its heel or toe), so ``V = k/2 (shank - phi(q))^2`` and the generalized
 spring force ``-dV/dq`` carries both the torque on the shank and the force the
 massless foot passes to the ankle. A foot in the air sits at its relaxed angle
-(``phi = shank``) and stores nothing.
+(``phi = shank``, turned toe-up by ``swing_dorsi``) and stores nothing; in heel
+pivot the spring is relaxed at that landing angle.
 
 The hip torque is a constant ``P`` between the thighs, ``+P`` on the swing thigh and
 ``-P`` on the stance thigh: the generalized force of the potential
@@ -27,8 +28,12 @@ def _toe_spring(ankle_2, shank_2, params, ctx):
 
 
 def _heel_spring(ankle_2, shank_2, params, ctx):
+    # Relaxed at the landing angle (shank + swing_dorsi), so heel-strike stores
+    # nothing: the dorsiflexor that held the foot in the air yields with the
+    # spring's stiffness until the foot is flat, and lets go at toe-strike (a loss).
     _, _, heel_2, _ = ph.anchors(params, ctx)
-    return 0.5 * params["k"] * (shank_2 - geo.heel_pivot_angle(ankle_2, heel_2)) ** 2
+    rest = shank_2 + params["swing_dorsi"]
+    return 0.5 * params["k"] * (rest - geo.heel_pivot_angle(ankle_2, heel_2)) ** 2
 
 
 def spring_energy(q, params, phase, ctx):

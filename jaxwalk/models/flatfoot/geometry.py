@@ -14,8 +14,9 @@ angle ``phi`` is measured from the slope surface, positive toe-up; the foot's
 heel-to-toe direction is ``(cos phi, sin phi)``. The heel lies
 ``a_h = l_f r / (1 + r)`` behind the ankle and the toe ``a_t = l_f / (1 + r)``
 ahead of it. ``phi`` is not a coordinate: it is 0 for a flat foot, fixed by the
-ankle's position for a foot pivoting on its heel or toe, and equal to the
-shank angle (foot perpendicular to the shank, spring relaxed) in swing.
+ankle's position for a foot pivoting on its heel or toe, and in swing equal to
+the shank angle plus ``swing_dorsi`` (perpendicular to the shank, turned toe-up
+by a dorsiflexion angle; the foot is massless, so this costs no dynamics).
 
 All lengths in units of the leg length L, masses in units of the total mass M.
 """
@@ -32,8 +33,16 @@ X_H, Y_H, THIGH_1, SHANK_1, THIGH_2, SHANK_2 = range(6)
 THIGH = {1: THIGH_1, 2: THIGH_2}
 SHANK = {1: SHANK_1, 2: SHANK_2}
 
-#: Names of the point masses, in the order of :func:`points`.
-POINT_NAMES = ("hip", "thigh_1", "shank_1", "foot_1", "thigh_2", "shank_2", "foot_2")
+#: Names of the point masses, in the order of :func:`points`. Each segment is two
+#: half masses at ``c l +- rho l`` along it: the same mass, centre of mass and
+#: moment of inertia ``m (rho l)^2`` about that centre as a rigid segment with
+#: radius of gyration ``rho l`` (exact for planar rigid bodies; ``rho = 0`` is
+#: the paper's point mass).
+POINT_NAMES = (
+    "hip",
+    "thigh_1_a", "thigh_1_b", "shank_1_a", "shank_1_b", "foot_1",
+    "thigh_2_a", "thigh_2_b", "shank_2_a", "shank_2_b", "foot_2",
+)  # fmt: skip
 
 
 def distal(angle: Array) -> Array:
@@ -66,23 +75,30 @@ def flexion(q: Array, leg: int) -> Array:
 
 
 def points(q: Array, params) -> Array:
-    """``(7, 2)`` positions of the point masses, in the order of :data:`POINT_NAMES`."""
+    """``(11, 2)`` positions of the point masses, in the order of :data:`POINT_NAMES`."""
     hip = q[:2]
     out = [hip]
+    l_t, l_s = params["l_t"], params["l_s"]
+    g_t, g_s = params["rho_t"] * l_t, params["rho_s"] * l_s
     for leg in (1, 2):
         thigh_dir, shank_dir = distal(q[THIGH[leg]]), distal(q[SHANK[leg]])
-        knee_ = hip + params["l_t"] * thigh_dir
+        knee_ = hip + l_t * thigh_dir
+        c_thigh = hip + params["c_t"] * l_t * thigh_dir
+        c_shank = knee_ + params["c_s"] * l_s * shank_dir
         out += [
-            hip + params["c_t"] * params["l_t"] * thigh_dir,
-            knee_ + params["c_s"] * params["l_s"] * shank_dir,
-            knee_ + params["l_s"] * shank_dir,
+            c_thigh - g_t * thigh_dir,
+            c_thigh + g_t * thigh_dir,
+            c_shank - g_s * shank_dir,
+            c_shank + g_s * shank_dir,
+            knee_ + l_s * shank_dir,
         ]
     return jnp.stack(out)
 
 
 def masses(params) -> Array:
-    """``(7,)`` point masses: hip, then thigh, shank, foot of leg 1 and of leg 2."""
-    leg = [params["m_t"], params["m_s"], params["m_f"]]
+    """``(11,)`` point masses: hip, then thigh (two halves), shank (two halves), foot of each leg."""
+    half_t, half_s = 0.5 * params["m_t"], 0.5 * params["m_s"]
+    leg = [half_t, half_t, half_s, half_s, params["m_f"]]
     return jnp.stack([params["m_h"], *leg, *leg])
 
 
@@ -111,9 +127,14 @@ def heel_pivot_angle(ankle_: Array, heel: Array) -> Array:
     return jnp.arctan2(w[1], w[0])
 
 
+def free_foot_angle(q: Array, params, leg: int) -> Array:
+    """Angle of a foot in the air: perpendicular to its shank, turned toe-up by ``swing_dorsi``."""
+    return q[SHANK[leg]] + params["swing_dorsi"]
+
+
 def free_foot(q: Array, params, leg: int) -> tuple[Array, Array]:
-    """Heel and toe of a foot in the air, held perpendicular to its shank."""
+    """Heel and toe of a foot in the air (:func:`free_foot_angle`)."""
     a_h, a_t = foot_arms(params)
     a = ankle(q, params, leg)
-    e = foot_direction(q[SHANK[leg]])
+    e = foot_direction(free_foot_angle(q, params, leg))
     return a - a_h * e, a + a_t * e

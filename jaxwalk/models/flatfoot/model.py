@@ -49,6 +49,17 @@ class FlatFootWalker(Walker):
         nonnegative("delay", 0.066, "1", "knee-unlock delay after toe-strike"),
         ParamSpec("knee_lock", 0.2, "rad", "knee flexion at the extension stop, where a knee locks", lower=0.0, upper=0.5),
         nonnegative("scuff_tol", 0.03, "1", "allowed depth of the swing foot below ground"),
+        ParamSpec("rho_t", 0.0, "1", "thigh radius of gyration about its centre of mass, fraction of l_t", lower=0.0, upper=0.5),
+        ParamSpec("rho_s", 0.0, "1", "shank radius of gyration about its centre of mass, fraction of l_s", lower=0.0, upper=0.5),
+        ParamSpec("knee_gate", 0.0, "1", "1: the swing knee latches only after its ankle passes the stance ankle (the paper's gate); 0: at once", lower=0.0, upper=1.0),
+        ParamSpec("swing_dorsi", 0.0, "rad", "swing foot turned toe-up from perpendicular to the shank", lower=-0.5, upper=0.5),
+        positive("mu", 1e6, "1", "friction coefficient at every ground contact"),
+        # A contact impulse pulls (or slides) when it is more tensile (or further
+        # outside the friction cone) than this fraction of the impact's largest
+        # normal impulse: the check scales with the impacts that occur (the old
+        # fixed 0.01 M sqrt(gL) exceeded every heel-strike impulse).
+        nonnegative("impulse_tol", 0.01, "1", "allowed tensile (or sliding) contact impulse, fraction of the impact's largest normal impulse"),
+        ParamSpec("stance_latch", 1.0, "1", "1: locked knees are latched (may pull); 0: on their extension stop only (KNEE_BUCKLED when it would pull)", lower=0.0, upper=1.0),
     )
     coordinates = ("x_h", "y_h", "thigh_1", "shank_1", "thigh_2", "shank_2")
     phases = ph.PHASE_NAMES
@@ -100,7 +111,7 @@ class FlatFootWalker(Walker):
         hip = -length * geo.distal(psi)
         th1, th2 = psi + delta, -psi + delta
         q = jnp.stack([hip[0], hip[1], th1, th1 - kappa, th2, th2 - kappa])
-        ctx = jnp.zeros(len(self.context), v.dtype)
+        ctx = jnp.zeros(len(self.context), v.dtype).at[ph.C["min_clearance"]].set(ph.NO_MINIMUM)
         ctx = ctx.at[ph.C["x_toe_2"]].set(-2.0 * length * jnp.sin(psi) + a_t)
         # Velocity: the push-off constraints hold, and thigh_1 turns at psi_dot.
         sigma = jax.jacfwd(ph.constraints)(q, params, ctx)[jnp.array(_SECTION_ROWS)]

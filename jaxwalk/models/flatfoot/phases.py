@@ -46,7 +46,11 @@ N_CONSTRAINTS = 9
 #: rests on its extension stop or flexes freely), :data:`RELATCHED` after
 #: knee-strike. ``history`` packs the guard indices of the events so far (base
 #: 16, the last :data:`HISTORY_DEPTH`) and ``n_logged`` counts them; ``t_*`` are
-#: event times (model time units, 0 if not reached).
+#: event times (model time units, 0 if not reached). ``min_clearance`` is the
+#: lowest interior minimum of the swing foot's heel or toe height above the
+#: ground since the section (:data:`NO_MINIMUM` if none); ``heel_dir`` and
+#: ``toe_dir`` (+1 rising, -1 falling) tell :mod:`clearance` which extremum
+#: comes next.
 CONTEXT = (
     "x_ankle_1",
     "x_toe_2",
@@ -61,9 +65,15 @@ CONTEXT = (
     "t_toe_off",
     "t_knee_strike",
     "t_heel_strike",
+    "min_clearance",
+    "heel_dir",
+    "toe_dir",
 )
 C = {name: i for i, name in enumerate(CONTEXT)}
 LATCHED, RELEASED, RELATCHED = 0.0, 1.0, 2.0
+#: ``min_clearance`` before the swing foot has passed a minimum (no foot in the
+#: air reaches a leg length above the ground).
+NO_MINIMUM = 1.0
 HISTORY_BASE = 16
 HISTORY_DEPTH = 13  # 16**13 = 2**52: exact in float64
 
