@@ -43,7 +43,7 @@ TOP_LEVEL_KEYS = ("name", "model", *SECTIONS)
 AXIS_KEYS = ("start", "stop", "num", "values")
 #: Solver settings passed through to the analysis when set (absent: its defaults).
 SOLVER_KEYS = ("rtol", "atol", "newton_tol", "max_newton_iter")
-ANALYSIS_KEYS = ("stability", "continuation", "seed_axis", "h_max", "attractors", *SOLVER_KEYS)
+ANALYSIS_KEYS = ("stability", "continuation", "seed_axis", "h_max", "attractors", "bifurcations", *SOLVER_KEYS)
 #: Keys of ``[analysis] h_max`` and the :class:`jaxwalk.stepdown.StepDownOptions` fields they set.
 H_MAX_KEYS = {"step": "dh", "count": "count", "steps": "n_steps"}
 
@@ -93,6 +93,8 @@ class SweepConfig:
             count * step``, steps to survive after the drop), or ``None`` when off.
         attractors: the attractor search (``{"max_period": int, "steps": int}``,
             :mod:`jaxwalk.sweep.attractors`), or ``None`` when off.
+        bifurcations: locate the bifurcations of every continuation line
+            (:mod:`jaxwalk.sweep.bifurcations`).
         source: where the config came from (a path, or a label).
         text: the TOML source, when read from text.
     """
@@ -108,6 +110,7 @@ class SweepConfig:
     solver: dict[str, float | int] = dataclasses.field(default_factory=dict)
     h_max: dict[str, float | int] | None = None
     attractors: dict[str, int] | None = None
+    bifurcations: bool = False
     source: str = "<config>"
     text: str | None = None
 
@@ -147,6 +150,7 @@ class SweepConfig:
                 **({"seed_axis": self.seed_axis} if self.seed_axis is not None else {}),
                 "h_max": dict(self.h_max) if self.h_max is not None else False,
                 **({"attractors": dict(self.attractors)} if self.attractors is not None else {}),
+                **({"bifurcations": True} if self.bifurcations else {}),
                 **self.solver,
             },
         }
@@ -248,6 +252,7 @@ def parse_config(
         solver=solver,
         h_max=h_max,
         attractors=attractors.parse(data.get("analysis", {}).get("attractors", False), fail),
+        bifurcations=_bifurcations(data.get("analysis", {}).get("bifurcations", False), continuation, fail),
         source=source,
         text=text,
     )
@@ -398,6 +403,15 @@ def _analysis(table, names, fail) -> tuple[bool, str | None, str | None, dict[st
             value = float(value)
         solver[key] = value
     return stability, continuation, seed_axis, solver, _h_max(table.get("h_max", False), fail)
+
+
+def _bifurcations(value, continuation, fail) -> bool:
+    """``[analysis] bifurcations``: ``true`` needs a continuation axis (the lines it searches)."""
+    if not isinstance(value, bool):
+        raise fail(f"[analysis]: bifurcations must be true or false, got {value!r}")
+    if value and continuation is None:
+        raise fail("[analysis]: bifurcations = true needs a continuation axis (continuation is off)")
+    return value
 
 
 def _seed_axis(value, continuation, names, fail) -> str | None:
