@@ -32,6 +32,7 @@ model = "simplest"
 gamma = {{ values = {GAMMAS.tolist()} }}
 [analysis]
 attractors = true
+bifurcations = true
 """
 
 
@@ -127,3 +128,14 @@ def test_figures_draw_periods_and_rates(sweep_path):
     assert {("attractor_period", "lines"), ("attractor_rate", "lines"), ("lambda_max", "lines")} <= set(figures)
     period_only = make_figures(xr.open_dataset(sweep_path, engine="zarr"), variables=["lambda_max"])
     assert set(period_only) == {("lambda_max", "lines")}
+
+
+def test_bifurcation_table_in_the_dataset(sweep_path):
+    """The sweep's table: the one flip on the line, at the published slope (0.0150884) to 1e-6."""
+    ds = xr.open_dataset(sweep_path, engine="zarr")
+    assert ds["bifurcation_kind"].dims == ("bifurcation",)
+    assert ds["bifurcation_kind"].values.tolist() == [2] and "flip" in ds["bifurcation_kind"].attrs["flag_meanings"]
+    assert abs(float(ds["bifurcation_parameter"][0]) - 0.0150884) < 1e-6
+    assert ds["bifurcation_status"].values.tolist() == [0] and ds["bifurcation_line"].values.tolist() == [0]
+    assert ds["bifurcation_point"].shape == (1, 3)
+    assert ds.attrs["swept_parameters"] == "gamma" and ds.attrs["model"] == "simplest"  # the table kept them

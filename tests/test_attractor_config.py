@@ -45,3 +45,12 @@ def test_refused(text, message):
     with pytest.raises(ConfigError, match=message) as err:
         loads_config(BASE + text)
     assert "\n" not in str(err.value) and "[analysis] attractors" in str(err.value)
+
+
+def test_bifurcations_key():
+    assert loads_config(BASE + "bifurcations = true").to_dict()["analysis"]["bifurcations"] is True
+    assert "bifurcations" not in loads_config(BASE + "bifurcations = false").to_dict()["analysis"]
+    with pytest.raises(ConfigError, match="bifurcations must be true or false"):
+        loads_config(BASE + "bifurcations = 1")
+    with pytest.raises(ConfigError, match="needs a continuation axis"):
+        loads_config(BASE + "bifurcations = true\ncontinuation = false")

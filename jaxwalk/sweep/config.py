@@ -45,7 +45,8 @@ AXIS_KEYS = ("start", "stop", "num", "values")
 SOLVER_KEYS = ("rtol", "atol", "newton_tol", "max_newton_iter")
 #: ``[analysis] gait_sensitivity`` and ``mfpt`` are read by :mod:`jaxwalk.global_stability.options`.
 GLOBAL_STABILITY_KEYS = ("gait_sensitivity", "mfpt")
-ANALYSIS_KEYS = ("stability", "continuation", "seed_axis", "h_max", "attractors", *GLOBAL_STABILITY_KEYS, *SOLVER_KEYS)
+ANALYSIS_KEYS = ("stability", "continuation", "seed_axis", "h_max", "attractors", "bifurcations",
+                 *GLOBAL_STABILITY_KEYS, *SOLVER_KEYS)
 #: Keys of ``[analysis] h_max`` and the :class:`jaxwalk.stepdown.StepDownOptions` fields they set.
 H_MAX_KEYS = {"step": "dh", "count": "count", "steps": "n_steps"}
 
@@ -97,6 +98,8 @@ class SweepConfig:
             :mod:`jaxwalk.sweep.attractors`), or ``None`` when off.
         global_stability: the resolved ``[analysis] gait_sensitivity`` and
             ``mfpt`` that are set (:mod:`jaxwalk.global_stability.options`); ``{}`` when neither is.
+        bifurcations: locate the bifurcations of every continuation line
+            (:mod:`jaxwalk.sweep.bifurcations`).
         source: where the config came from (a path, or a label).
         text: the TOML source, when read from text.
     """
@@ -113,6 +116,7 @@ class SweepConfig:
     h_max: dict[str, float | int] | None = None
     attractors: dict[str, int] | None = None
     global_stability: dict = dataclasses.field(default_factory=dict)
+    bifurcations: bool = False
     source: str = "<config>"
     text: str | None = None
 
@@ -153,6 +157,7 @@ class SweepConfig:
                 "h_max": dict(self.h_max) if self.h_max is not None else False,
                 **({"attractors": dict(self.attractors)} if self.attractors is not None else {}),
                 **self.global_stability,  # only the keys that are set: fingerprints unchanged without them
+                **({"bifurcations": True} if self.bifurcations else {}),
                 **self.solver,
             },
         }
@@ -256,6 +261,7 @@ def parse_config(
         h_max=h_max,
         attractors=attractors.parse(data.get("analysis", {}).get("attractors", False), fail),
         global_stability=global_stability,
+        bifurcations=_bifurcations(data.get("analysis", {}).get("bifurcations", False), continuation, fail),
         source=source,
         text=text,
     )
@@ -406,6 +412,15 @@ def _analysis(table, names, fail) -> tuple[bool, str | None, str | None, dict[st
             value = float(value)
         solver[key] = value
     return stability, continuation, seed_axis, solver, _h_max(table.get("h_max", False), fail)
+
+
+def _bifurcations(value, continuation, fail) -> bool:
+    """``[analysis] bifurcations``: ``true`` needs a continuation axis (the lines it searches)."""
+    if not isinstance(value, bool):
+        raise fail(f"[analysis]: bifurcations must be true or false, got {value!r}")
+    if value and continuation is None:
+        raise fail("[analysis]: bifurcations = true needs a continuation axis (continuation is off)")
+    return value
 
 
 def _seed_axis(value, continuation, names, fail) -> str | None:

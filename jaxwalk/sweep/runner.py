@@ -179,6 +179,10 @@ def run_sweep(
         from jaxwalk.seedline import dataset_attributes
 
         store.set_attributes(dataset_attributes(seeds))
+    if config.bifurcations:  # from the whole lines written (jaxwalk.sweep.bifurcations)
+        from jaxwalk.sweep.bifurcations import write_table
+
+        write_table(config, model, store.store, options)
     store.finish()
     if plot:
         try:

@@ -1,0 +1,84 @@
+"""The bifurcation table of a sweep (``[analysis] bifurcations``).
+
+After every block is written, the period-1 gaits of each continuation line
+are read back from the store and :func:`jaxwalk.bifurcation.locate` finds
+the folds, flips, Neimark-Sacker points and lost-gait edges between their
+points, to 1e-6 in the continuation parameter. They are written as a table
+along a ``bifurcation`` dimension (one row per point):
+
+* ``bifurcation_kind`` int8 (CF flags: ``fold flip neimark_sacker grazing lost``);
+* ``bifurcation_parameter``: the continuation parameter's value;
+* ``bifurcation_<axis>`` for every other grid axis: the line's value of it;
+* ``bifurcation_line`` int32: the line's index in C order of the other axes;
+* ``bifurcation_status`` int8: 0, or why the location did not reach 1e-6;
+* ``bifurcation_beyond`` int8: the status beyond a lost-gait edge (0 for sign changes);
+* ``bifurcation_point`` ``(bifurcation, section)`` and
+  ``bifurcation_multipliers_real`` / ``_imag`` ``(bifurcation, eigen)`` there.
+
+The table is computed again, the same, when a finished-but-not-renamed run is resumed.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from jaxwalk.status import flag_attributes
+
+
+def table(config, model, store: Path, options) -> xr.Dataset:
+    """The bifurcation table of the grid written in ``store`` (a zarr group)."""
+    from jaxwalk.bifurcation import KIND_MEANINGS, Kind, locate
+    from jaxwalk.grid import parameter_grid
+
+    ds = xr.open_zarr(store, consolidated=False)
+    axis = config.continuation
+    k = config.dims.index(axis)
+    move = lambda x: np.moveaxis(np.asarray(x), k, len(config.dims) - 1)
+    n = config.shape[k]
+    others = [d for d in config.dims if d != axis]
+    status = move(ds["status"].values).reshape(-1, n)
+    v = move(ds["fixed_point"].values).reshape(-1, n, len(model.section_names))
+    eig = move(ds["eigenvalues_real"].values + 1j * ds["eigenvalues_imag"].values).reshape(v.shape)
+    lines = {name: move(values).reshape(-1, n) for name, values in parameter_grid(model, config.fixed, config.grid).items()}
+    found = locate(model, lines, axis, status, np.nan_to_num(v), np.nan_to_num(eig), solver=options.solver, newton=options.newton)
+    where = np.unravel_index(found.line, tuple(config.shape[config.dims.index(d)] for d in others)) if others else ()
+    dim = "bifurcation"
+    kinds = list(Kind)
+    data = {
+        "bifurcation_kind": (dim, found.kind, {
+            "long_name": "kind of bifurcation located on a continuation line",
+            "flag_values": [int(c) for c in kinds], "flag_meanings": " ".join(c.name.lower() for c in kinds),
+            "flag_descriptions": "; ".join(f"{int(c)} {c.name.lower()}: {KIND_MEANINGS[c]}" for c in kinds),
+        }),
+        "bifurcation_parameter": (dim, found.parameter, {
+            "long_name": f"value of the continuation parameter {axis} at the bifurcation (to 1e-6)",
+            "units": ds[axis].attrs.get("units", ""),
+        }),
+        "bifurcation_line": (dim, found.line, {"long_name": "index of the continuation line (C order of the other grid axes)"}),
+        "bifurcation_status": (dim, found.status, {"long_name": "outcome of the location (0: located to 1e-6)", **flag_attributes()}),
+        "bifurcation_beyond": (dim, found.beyond, {
+            "long_name": "status beyond an edge where the gait is lost (0 for sign changes)", **flag_attributes(),
+        }),
+        "bifurcation_point": ((dim, "section"), found.v, {"long_name": "the gait's fixed point at the bifurcation"}),
+        "bifurcation_multipliers_real": ((dim, "eigen"), found.multipliers.real, {"long_name": "real part of the multipliers there"}),
+        "bifurcation_multipliers_imag": ((dim, "eigen"), found.multipliers.imag, {"long_name": "imaginary part of the multipliers there"}),
+    }
+    for d, index in zip(others, where):
+        data[f"bifurcation_{d}"] = (dim, np.asarray(ds[d].values)[index], {"long_name": f"the line's value of {d}"})
+    return xr.Dataset(data)
+
+
+def write_table(config, model, store: Path, options) -> None:
+    """Compute the table and add it to the store (replacing one written before)."""
+    import zarr
+
+    found = table(config, model, store, options)
+    # xarray's append sets the group's attributes to the appended dataset's:
+    # keep the sweep's global attributes (its config, units, history, ...).
+    attrs = dict(zarr.open_group(store, mode="r", zarr_format=3).attrs)
+    found.attrs.update(attrs)
+    found.to_zarr(store, mode="a", zarr_format=3, consolidated=False)
+    zarr.open_group(store, mode="r+", zarr_format=3).attrs.update(attrs)
