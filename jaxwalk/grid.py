@@ -197,6 +197,11 @@ def line_rows(
     }
 
 
+def padded_length(n: int) -> int:
+    """The length continuation lines of ``n`` points run at: :data:`LINE_LENGTH_QUANTUM`'s next multiple."""
+    return -(-n // LINE_LENGTH_QUANTUM) * LINE_LENGTH_QUANTUM
+
+
 def run_lines(
     model: Walker,
     lines: Mapping[str, np.ndarray],
@@ -415,8 +420,7 @@ def analyse_chunk(
         rows = {n: v.reshape(-1, len(values)) for n, v in moved.items()}
         if starts is not None:
             starts = np.asarray(starts, np.float64).reshape(-1, len(model.section_names))
-        length = -(-len(values) // LINE_LENGTH_QUANTUM) * LINE_LENGTH_QUANTUM
-        gaits = run_lines(model, rows, seed, options, starts, progress, length=length)
+        gaits = run_lines(model, rows, seed, options, starts, progress, length=padded_length(len(values)))
 
         def unflatten(x):
             x = x.reshape(moved_shape + x.shape[2:])

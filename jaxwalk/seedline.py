@@ -76,7 +76,7 @@ def seed_lines(model: Walker, fixed: Mapping[str, float], grid: Mapping[str, np.
         continuation_axis: A, the axis the grid's lines follow.
         seed_axis: B, another grid axis.
     """
-    from jaxwalk.grid import chunk_shape, parameter_grid, run_lines
+    from jaxwalk.grid import chunk_shape, padded_length, parameter_grid, run_lines
 
     check_axes(grid, continuation_axis, seed_axis)
     axes = list(grid)
@@ -98,9 +98,10 @@ def seed_lines(model: Walker, fixed: Mapping[str, float], grid: Mapping[str, np.
     k_a = axes.index(continuation_axis)
     shape = tuple(len(np.atleast_1d(v)) for v in grid.values())
     n_block = int(np.prod(chunk_shape(shape, options.chunk_size, k_a))) // shape[k_a]
-    per_call = min(max(1, options.chunk_size // shape[k_a]), 1 << max(0, (n_block - 1).bit_length()))
+    length = padded_length(shape[k_a])  # as the A-lines run (jaxwalk.grid.LINE_LENGTH_QUANTUM)
+    per_call = min(max(1, options.chunk_size // length), 1 << max(0, (n_block - 1).bit_length()))
     seed_b = seed_index(b_values, model.param_specs[seed_axis].default)
-    gaits = run_lines(model, rows, seed_b, options, lines_per_call=per_call, length=shape[k_a])
+    gaits = run_lines(model, rows, seed_b, options, lines_per_call=per_call, length=length)
 
     def back(x):
         x = np.asarray(x).reshape(moved_shape + x.shape[2:])

@@ -101,6 +101,8 @@ def fixed_parameters_text(ds: xr.Dataset, max_chars: int = 110) -> str:
     except Exception:  # a dataset of another version or model registry: no caption, not an error
         return ""
     swept = set(str(ds.attrs.get("swept_parameters", "")).split())
+    if not set(fixed) - swept:  # every parameter is swept (the simplest walker's gamma): nothing to say
+        return ""
     changed = {k: v for k, v in fixed.items() if k not in swept and (k not in specs or float(v) != float(specs[k].default))}
     parts = [f"{k} = {float(v):.4g}{'' if units.get(k) in (None, '', '1') else ' ' + units[k]}" for k, v in changed.items()]
     rest = "others at the model's defaults" if len(changed) < len(set(fixed) - swept) else ""

@@ -116,8 +116,6 @@ def run_sweep(
             different sweep there, or too little disk space, before anything is
             computed or written.
     """
-    from tqdm.auto import tqdm
-
     if not isinstance(config, SweepConfig):
         config = load_config(config, max_points=max_points)
     model = get_model(config.model)
@@ -133,7 +131,6 @@ def run_sweep(
     if chunk_size is not None:
         options = dataclasses.replace(options, chunk_size=chunk_size)
 
-    from jaxwalk.sweep.chunks import chunk_results
     from jaxwalk.sweep.store import ChunkStore
 
     step_down = config.h_max is not None
@@ -151,6 +148,36 @@ def run_sweep(
 
         seeds = seed_lines(model, config.fixed, config.grid, config.continuation, config.seed_axis, options)
     starts = None if seeds is None else seeds.starts
+    _compute_blocks(config, analyse, options, store, keys, n_v, starts, progress=progress, dask=dask, command=command)
+    if seeds is not None:
+        from jaxwalk.seedline import dataset_attributes
+
+        store.set_attributes(dataset_attributes(seeds))
+    if config.bifurcations:  # from the whole lines written (jaxwalk.sweep.bifurcations)
+        from jaxwalk.sweep.bifurcations import write_table
+
+        write_table(config, model, store.store, options)
+    store.finish()
+    if plot:
+        try:
+            from jaxwalk.plot import plot_dataset
+
+            plot_dataset(target, target.parent)  # read back: the figures show what was written
+        except Exception as err:  # a figure is a convenience; the dataset is written
+            warnings.warn(f"figures not written: {' '.join(str(err).split())}", stacklevel=2)
+    return target
+
+
+def _compute_blocks(config, analyse, options, store, keys, n_v: int, starts, *, progress: bool, dask, command: str) -> None:
+    """Compute and write every block ``store`` still needs, with a progress bar; say
+    first when an unfinished run is continued, and on Ctrl-C what was kept and how
+    to continue (:class:`SweepInterrupted`); record this machine's speed (:mod:`timings`)."""
+    from tqdm.auto import tqdm
+
+    from jaxwalk.sweep.chunks import chunk_results
+
+    step_down = config.h_max is not None
+    attractor_keys = None if config.attractors is None else attractors.result_keys(config.attractors, n_v)
     started, traced_before, points_before = time.perf_counter(), program_cache_traces(), store.points_done
     if store.done:
         print(
@@ -175,23 +202,6 @@ def run_sweep(
 
         points = config.n_points - points_before
         timings.record(config, time.perf_counter() - started, points, program_cache_traces() > traced_before)
-    if seeds is not None:
-        from jaxwalk.seedline import dataset_attributes
-
-        store.set_attributes(dataset_attributes(seeds))
-    if config.bifurcations:  # from the whole lines written (jaxwalk.sweep.bifurcations)
-        from jaxwalk.sweep.bifurcations import write_table
-
-        write_table(config, model, store.store, options)
-    store.finish()
-    if plot:
-        try:
-            from jaxwalk.plot import plot_dataset
-
-            plot_dataset(target, target.parent)  # read back: the figures show what was written
-        except Exception as err:  # a figure is a convenience; the dataset is written
-            warnings.warn(f"figures not written: {' '.join(str(err).split())}", stacklevel=2)
-    return target
 
 
 def program_cache_traces() -> int:
