@@ -250,10 +250,15 @@ def impulse_failures(q, impulses, params, ctx):
     return pulls, slides
 
 
-def _latch_after_strike(q, params, ctx):
+def _latch_after_strike(q, params, phase, ctx):
     """The swing knee's latch after knee-strike: closed, unless the paper's gate
-    (``knee_gate``) holds it open until the swing ankle passes the stance ankle."""
-    passed = geo.ankle(q, params, 2)[0] > ctx[ph.C["x_ankle_1"]]
+    (``knee_gate``) holds it open until the swing ankle passes the stance ankle.
+
+    A knee-strike in locked_swing is the gate opening itself (the ankle passing,
+    to root-finding accuracy): it always closes the latch, or the gate's guard,
+    still at zero, would fire again and again.
+    """
+    passed = (geo.ankle(q, params, 2)[0] > ctx[ph.C["x_ankle_1"]]) | (phase == ph.LOCKED_SWING)
     return jnp.where((params["knee_gate"] < 0.5) | passed, ph.RELATCHED, ph.RELEASED)
 
 
@@ -322,7 +327,7 @@ def on_event(model, guard, t, y, params, phase, ctx):
             _log(ctx, UNLOCK, t, "t_unlock").at[knee].set(ph.RELEASED),
             _log(ctx, KNEE_FLEX, t, "t_knee_flex"),
             _log(ctx, TOE_OFF, t, "t_toe_off"),
-            _log(ctx, KNEE_STRIKE, t, "t_knee_strike").at[knee].set(_latch_after_strike(q, params, ctx)),
+            _log(ctx, KNEE_STRIKE, t, "t_knee_strike").at[knee].set(_latch_after_strike(q, params, phase, ctx)),
             _log(ctx, HEEL_STRIKE, t, "t_heel_strike").at[ph.C["x_heel_2"]].set(heel_pt[0]),
             ctx,  # extrema of the swing foot's height are not logged: they are not phases
         ],
