@@ -61,6 +61,7 @@ def test_h2_norm_of_a_known_system():
     assert np.isinf(float(h2_norm(jnp.array([[1.2]]), jnp.array([b]), jnp.array([[c]]), jnp.array([d]), jnp.asarray(1.2))))
 
 
+@pytest.mark.slow
 def test_gradient_equals_finite_differences_of_the_norm():
     """d GSN / d gamma of the simplest walker (forward over forward, implicit dv*/dp) against
     central differences of the norm at gamma +- h, each with its own gait search."""

@@ -6,6 +6,5 @@
 * :mod:`~jaxwalk.global_stability.walks`: walks over given or random terrain,
   batched (Monte Carlo steps-to-fall);
 * :mod:`~jaxwalk.global_stability.mfpt`: the mean first-passage time on random
-  terrain from the discretised step-to-step Markov chain (Byl & Tedrake 2009);
-* :mod:`~jaxwalk.global_stability.basin`: basins of attraction on the section.
+  terrain from the discretised step-to-step Markov chain (Byl & Tedrake 2009).
 """

@@ -7,7 +7,7 @@ foot. A walk ends at its first failed step (a fall, a scuff, ...), whose
 status it keeps.
 
 * :func:`walk_terrain`: a given drop sequence, every step recorded (the gait
-  sensitivity norm's finite-difference check, basins).
+  sensitivity norm's finite-difference check).
 * :func:`steps_to_fall`: i.i.d. ``N(0, sigma^2)`` drops until the first failure
   or ``max_steps``; :func:`monte_carlo` runs thousands at once and estimates the
   mean number of completed steps before a fall (the MFPT's direct check, also
