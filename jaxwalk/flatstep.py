@@ -160,12 +160,7 @@ def _attempt(model, params, opts: SolverOptions, solver, controller, c: _Carry, 
     term = diffrax.ODETerm(model.vector_field)
     args = (params, c.phase, c.ctx)
     t1 = jnp.minimum(c.t + c.dt, t_limit)
-    # The first stage is evaluated afresh on every step (made_jump): diffrax
-    # reuses the last stage (FSAL) unless any lane of the batch needs it anew
-    # (``unvmap_any``), and the two values differ in the last bits, so a lane's
-    # result depended on its batch neighbours (1e-10 in the simplest walker's
-    # map). One more evaluation per step keeps every lane independent.
-    y1, y_err, dense, (_, f1), _ = solver.step(term, c.t, t1, c.y, args, (c.fresh, c.f0), True)
+    y1, y_err, dense, (_, f1), _ = solver.step(term, c.t, t1, c.y, args, (c.fresh, c.f0), c.fresh)
     y_err = jnp.where(jnp.isnan(y_err), jnp.inf, y_err)  # as diffrax: a NaN step is rejected
     keep, t_next0, t_next1, _, (e1, e2, _), _ = controller.adapt_step_size(
         c.t, t1, c.y, y1, args, y_err, solver.error_order(term), (c.pid[0], c.pid[1], False)

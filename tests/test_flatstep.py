@@ -83,9 +83,10 @@ def test_flat_jacobian_matches_central_differences(simplest_maps):
 
 def test_flat_vmap_equals_single_runs_and_failures_are_statuses():
     """A batch on the flat engine, each lane in its own phase, equals one run per
-    config: the step map to round-off, gait searches to the map's integration
-    noise (tolerances of tests/test_simplest.py); an uphill slope fails with
-    the nested engine's status."""
+    config to the map's integration noise (not to round-off as on the nested
+    engine: measured 1e-10 in the map, docs/engine.md "Known limits"; gait
+    tolerances of tests/test_simplest.py); an uphill slope fails with the
+    nested engine's status."""
 
     def params(g):
         return {**SIMPLEST.default_params(), "gamma": g}
@@ -99,7 +100,7 @@ def test_flat_vmap_equals_single_runs_and_failures_are_statuses():
     batch = jax.jit(jax.vmap(lambda g: search(g, FLAT)))(gammas)
     one = jax.jit(lambda g: search(g, FLAT))
     for i, g in enumerate(gammas[:3]):
-        np.testing.assert_allclose(maps[i], one_map(g), rtol=0, atol=1e-13)
+        np.testing.assert_allclose(maps[i], one_map(g), rtol=0, atol=1e-9)
         single = one(g)
         assert int(single.status) == int(batch.status[i]) == Status.OK
         np.testing.assert_allclose(single.v, batch.v[i], atol=1e-9)
