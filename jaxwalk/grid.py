@@ -371,9 +371,8 @@ def analyse_chunk(
     Called on a block of a larger grid (:func:`sub_grid`), it gives bit for bit
     the numbers the larger grid has there, as long as the block holds whole
     continuation lines: every configuration (or line) is computed on its own,
-    whatever its batch neighbours, padding or device (checked: chunk sizes 16
-    to 256, one or two devices, the simplest walker's slope sweep). A block
-    holding a line of the continuation axis in full starts it from the same seed.
+    whatever its batch neighbours, padding or thread (test_lockstep, test_workers). A
+    block holding a line of the continuation axis in full starts it from the same seed.
 
     Args:
         model: the walker.
@@ -381,7 +380,7 @@ def analyse_chunk(
         grid: swept axes, ``name -> 1-D values``; the grid is their product, in order.
         continuation_axis: a name in ``grid`` to continue along, or ``None``
             for independent searches from the model's initial guess.
-        options: solver, Newton and chunking settings.
+        options: solver, Newton, chunking and analysis settings.
         progress: called with the number of configurations finished after each chunk.
         starts: with continuation only: start points of the lines' seed points,
             shaped like the grid without the continuation axis, plus ``(n_v,)``;
@@ -394,14 +393,9 @@ def analyse_chunk(
         ``lambda_max``, ``eigenvalues`` (complex, ``S + (n_v,)``),
         ``fixed_point`` (``S + (n_v,)``), ``jacobian`` (``S + (n_v, n_v)``),
         ``period``, ``step_length``, ``speed``, ``work`` (actuator work per
-        step), ``cost_of_transport``, ``newton_iterations``; with
-        ``options.step_down`` also ``h_max`` (NaN where no gait was found),
-        ``step_down_status`` (int8, the first failed drop's status, ``OK`` if none
-        failed up to the limit; where no gait was found, the gait's status) and
-        ``h_failed`` (that drop's height); with ``options.attractors`` also the
-        attractor's ``attractor_status``, ``attractor_period``, ``attractor_lambda_max``,
-        ``attractor_rate``, ``attractor_multipliers`` and ``attractor_points``
-        (:func:`jaxwalk.attractor.grid_attractors`).
+        step), ``cost_of_transport``, ``newton_iterations``; and the outputs of
+        the analyses ``options`` asks for (:func:`_beyond_the_gait`: step-down,
+        attractors, global stability; docs/sweeps.md lists them).
     """
     params = parameter_grid(model, fixed, grid)
     axes = list(grid)
@@ -427,7 +421,7 @@ def analyse_chunk(
             return np.moveaxis(x, len(shape) - 1, k)
 
     gaits = jax.tree_util.tree_map(unflatten, gaits)
-    out = {
+    out = {  # the gait's own outputs
         "status": gaits.status.astype(np.int8),
         "lambda_max": gaits.lambda_max,
         "eigenvalues": gaits.eigenvalues,
@@ -440,21 +434,31 @@ def analyse_chunk(
         "cost_of_transport": gaits.cost_of_transport,
         "newton_iterations": gaits.iterations.astype(np.int32),
     }
+    out.update(_beyond_the_gait(model, params, gaits, out, options))
+    return out
+
+
+def _beyond_the_gait(model: Walker, params, gaits: Gait, out, options: AnalysisOptions) -> dict[str, np.ndarray]:
+    """The analyses that start from a block's gaits (step-down, attractors, global
+    stability), each only when ``options`` asks for it; arrays of the grid's shape."""
+    shape = out["status"].shape
+    extra = {}
     if options.step_down is not None:
         rows = {k: v.reshape(-1) for k, v in params.items()}
         rows["__v_star__"] = gaits.v.reshape(-1, gaits.v.shape[-1])
         program = _step_down_program(model, options.solver, options.step_down)
         drops = _run_chunks(program, rows, options.chunk_size, None)
-        out["h_max"] = drops.h_max.reshape(shape)
+        extra["h_max"] = drops.h_max.reshape(shape)
         no_gait = out["status"] != 0  # no h_max without a gait: carry the gait's status
-        out["step_down_status"] = np.where(no_gait, out["status"], drops.first_failure.astype(np.int8).reshape(shape))
-        out["h_failed"] = drops.failed_at.reshape(shape)
+        extra["step_down_status"] = np.where(no_gait, out["status"], drops.first_failure.astype(np.int8).reshape(shape))
+        extra["h_failed"] = drops.failed_at.reshape(shape)
     if options.attractors is not None:
         from jaxwalk.attractor import grid_attractors
 
-        out.update(grid_attractors(model, params, out, options))
+        extra.update(grid_attractors(model, params, {**out, **extra}, options))
     if options.global_stability is not None:
         from jaxwalk.global_stability.sweep import grid_outputs
 
-        out.update(grid_outputs(model, params, gaits, out["status"], options.solver, options.global_stability))
-    return out
+        extra.update(grid_outputs(model, params, gaits, out["status"], options.solver, options.global_stability))
+    return extra
+
