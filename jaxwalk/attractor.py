@@ -354,7 +354,7 @@ def grid_attractors(model: Walker, params: dict, gaits: dict, options) -> dict:
     Returns:
         The :data:`RESULT_KEYS` arrays, of shape ``S`` plus their trailing shape.
     """
-    from jaxwalk.grid import _run_chunks
+    from jaxwalk.batching import run_chunks as _run_chunks
 
     settings: AttractorOptions = options.attractors
     shape = gaits["status"].shape
@@ -390,7 +390,7 @@ def grid_attractors(model: Walker, params: dict, gaits: dict, options) -> dict:
 @functools.lru_cache(maxsize=None)
 def _attractor_program(model: Walker, settings: AttractorOptions, solver: SolverOptions, newton: NewtonOptions):
     from jaxwalk import program_cache
-    from jaxwalk.grid import _in_sub_batches
+    from jaxwalk.batching import in_sub_batches as _in_sub_batches
 
     def one(p):
         p = dict(p)
