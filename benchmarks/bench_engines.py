@@ -18,9 +18,7 @@ Writes ``benchmarks/results/engines_<model>.json``.
 from __future__ import annotations
 
 import argparse
-import json
 import os
-import platform
 import sys
 import time
 
@@ -35,6 +33,7 @@ import jaxwalk  # noqa: E402
 from jaxwalk.gait import find_gait  # noqa: E402
 from jaxwalk.models import get_model  # noqa: E402
 from jaxwalk.step import SolverOptions  # noqa: E402
+from _record import machine, write_result  # noqa: E402
 
 SPREAD = {"flatfoot": ("r", 0.38, 0.42), "simplest": ("gamma", 0.004, 0.014), "compass": ("gamma", 0.02, 0.06)}
 
@@ -112,12 +111,9 @@ def main(argv=None) -> int:
         result["flat_speedup_at_n"] = runs["nested"]["per_config_s"] / runs["flat"]["per_config_s"]
         print(f"flat vs nested at batch {args.n}: {result['flat_speedup_at_n']:.2f}x faster; {result['flat_vs_nested']}", flush=True)
     result["load_average_at_end"] = os.getloadavg()
-    result["machine"] = {"cpus": os.cpu_count(), "platform": platform.platform(), "python": platform.python_version()}
+    result["machine"] = machine()
     result["versions"] = {"jaxwalk": jaxwalk.__version__, "jax": jax.__version__}
-    path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results", f"engines_{args.model}.json")
-    with open(path, "w") as fh:
-        json.dump(result, fh, indent=2)
-        fh.write("\n")
+    write_result(f"engines_{args.model}", result)
     return 0
 
 

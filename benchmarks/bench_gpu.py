@@ -18,9 +18,7 @@ defaults. Writes ``benchmarks/results/gpu_<platform>.json``.
 from __future__ import annotations
 
 import argparse
-import json
 import os
-import platform
 import sys
 import time
 
@@ -35,6 +33,7 @@ import jaxwalk  # noqa: E402
 from jaxwalk.gait import find_gait  # noqa: E402
 from jaxwalk.models import get_model  # noqa: E402
 from jaxwalk.step import SolverOptions  # noqa: E402
+from _record import machine, write_result  # noqa: E402
 
 MODEL = get_model("flatfoot")
 SOLVER = SolverOptions(engine="flat")
@@ -94,13 +93,10 @@ def main(argv=None) -> int:
         "platform": device.platform,
         "load_average_at_start": os.getloadavg(),
         "runs": [measure(n, args.sub_batch) for n in args.sizes],
-        "machine": {"cpus": os.cpu_count(), "platform": platform.platform(), "python": platform.python_version()},
+        "machine": machine(),
         "versions": {"jaxwalk": jaxwalk.__version__, "jax": jax.__version__},
     }
-    path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results", f"gpu_{device.platform}.json")
-    with open(path, "w") as fh:
-        json.dump(result, fh, indent=2)
-        fh.write("\n")
+    write_result(f"gpu_{device.platform}", result)
     return 0
 
 

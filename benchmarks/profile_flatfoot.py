@@ -22,7 +22,6 @@ Writes ``benchmarks/results/profile_<model>.json``.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 import time
@@ -40,6 +39,7 @@ from jaxwalk.gait import find_gait  # noqa: E402
 from jaxwalk.models import get_model  # noqa: E402
 from jaxwalk.status import Status  # noqa: E402
 from jaxwalk.step import SolverOptions  # noqa: E402
+from _record import write_result  # noqa: E402
 
 MODEL = get_model("flatfoot")
 OPTS = SolverOptions(engine="flat")
@@ -151,10 +151,7 @@ def main(argv=None) -> int:
     for part in args.parts:
         result[part] = {"loop": profile_loop, "pieces": profile_pieces, "rtol": profile_rtol}[part]()
     result["load_average_at_end"] = os.getloadavg()
-    path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results", f"profile_{args.model}.json")
-    with open(path, "w") as fh:
-        json.dump(result, fh, indent=2)
-        fh.write("\n")
+    write_result(f"profile_{args.model}", result)
     return 0
 
 

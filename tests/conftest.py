@@ -27,6 +27,21 @@ def pytest_configure(config):
     )
 
 
+#: A small two-axis compass sweep (7 x 5, continuation along gamma) that the
+#: store, runner and API tests run with the fake analysis.
+COMPASS_2D = """
+name = "grid2d"
+model = "compass"
+[grid]
+m_h = { start = 5.0, stop = 20.0, num = 7 }
+gamma = { start = 0.01, stop = 0.05, num = 5 }
+[analysis]
+continuation = "gamma"
+"""
+#: Attributes that say when and how a dataset was made, not what it holds.
+RUN_ATTRS = ("created", "command", "history", "config_source")
+
+
 @pytest.fixture
 def write_toml(tmp_path):
     """``write_toml(text, name="sweep.toml") -> Path`` in a fresh directory."""

@@ -14,18 +14,8 @@ import xarray as xr
 import jaxwalk
 import jaxwalk.grid
 from jaxwalk import cli
+from tests.conftest import COMPASS_2D as SWEEP, RUN_ATTRS
 
-SWEEP = """
-name = "grid2d"
-model = "compass"
-[grid]
-m_h = { start = 5.0, stop = 20.0, num = 7 }
-gamma = { start = 0.01, stop = 0.05, num = 5 }
-[analysis]
-continuation = "gamma"
-"""
-#: Attributes that say when and how a dataset was made, not what it holds.
-RUN_ATTRS = ("created", "command", "history", "config_source")
 
 
 def assert_same(a: xr.Dataset, b: xr.Dataset, run_attrs=RUN_ATTRS) -> None:

@@ -16,16 +16,8 @@ import jaxwalk.grid
 from jaxwalk import cli
 from jaxwalk.status import Status
 from jaxwalk.sweep.store import partial_path
+from tests.conftest import COMPASS_2D
 
-COMPASS_2D = """
-name = "grid2d"
-model = "compass"
-[grid]
-m_h = { start = 5.0, stop = 20.0, num = 7 }
-gamma = { start = 0.01, stop = 0.05, num = 5 }
-[analysis]
-continuation = "gamma"
-"""
 
 
 def opened(path):

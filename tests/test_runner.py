@@ -13,16 +13,8 @@ from jaxwalk.stepdown import StepDownOptions
 from jaxwalk.sweep import ConfigError, check_results, loads_config, run_sweep
 from jaxwalk.grid import AnalysisOptions
 from jaxwalk.sweep.runner import RESULT_KEYS, STEP_DOWN_KEYS, analysis_options
+from tests.conftest import COMPASS_2D
 
-COMPASS_2D = """
-name = "grid2d"
-model = "compass"
-[grid]
-m_h = { start = 5.0, stop = 20.0, num = 7 }
-gamma = { start = 0.01, stop = 0.05, num = 5 }
-[analysis]
-continuation = "gamma"
-"""
 
 
 def results_of(path):

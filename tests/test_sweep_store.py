@@ -22,19 +22,8 @@ from jaxwalk.sweep.dataset import build_dataset, write_zarr
 from jaxwalk.sweep.runner import analysis_options, check_results
 from jaxwalk.sweep.store import partial_path
 
-from tests.conftest import ROOT
+from tests.conftest import COMPASS_2D, ROOT, RUN_ATTRS
 
-COMPASS_2D = """
-name = "grid2d"
-model = "compass"
-[grid]
-m_h = { start = 5.0, stop = 20.0, num = 7 }
-gamma = { start = 0.01, stop = 0.05, num = 5 }
-[analysis]
-continuation = "gamma"
-"""
-#: Attributes that say when and how a dataset was made, not what it holds.
-RUN_ATTRS = ("created", "command", "history", "config_source")
 
 
 def opened(path):

@@ -1,0 +1,22 @@
+"""Where a benchmark's figures go: ``benchmarks/results/<name>.json``, with the
+machine and versions that produced them (shared by the benchmark scripts)."""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+
+
+def machine() -> dict:
+    """Cores, platform and Python of this machine."""
+    return {"cpus": os.cpu_count(), "platform": platform.platform(), "python": platform.python_version()}
+
+
+def write_result(name: str, result: dict) -> str:
+    """Write ``result`` as indented JSON to ``benchmarks/results/<name>.json``; return the path."""
+    path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results", f"{name}.json")
+    with open(path, "w") as fh:
+        json.dump(result, fh, indent=2)
+        fh.write("\n")
+    return path
