@@ -12,7 +12,7 @@ is none yet). All other axes are batched with ``vmap``.
 
 from __future__ import annotations
 
-from typing import Mapping
+from typing import Mapping, NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -45,6 +45,85 @@ def visiting_order(n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
     return order, restart
 
 
+class LineCarry(NamedTuple):
+    """What a continuation line hands from one visit to the next (one line; vmap it).
+
+    Attributes:
+        v_prev, have_prev: ``(n_v,)`` start for the next visit (the last
+            converged gait, or the last start where a search failed) and whether it holds one.
+        v_seed, have_seed: ``(n_v,)`` the seed point's gait (or the line's given
+            start before the seed is visited), where the walk down restarts.
+    """
+
+    v_prev: Array
+    have_prev: Array
+    v_seed: Array
+    have_seed: Array
+
+
+def line_start(n_v: int, dtype, v_start: Array | None = None, have_start: Array | bool = False) -> LineCarry:
+    """The carry before a line's first visit: ``v_start`` where ``have_start``
+    (it then plays the model's initial guess's part throughout), else none."""
+    have = jnp.asarray(have_start, bool)
+    v0 = jnp.zeros(n_v, dtype) if v_start is None else jnp.where(have, jnp.asarray(v_start, dtype), 0.0)
+    return LineCarry(v0, have, v0, have)
+
+
+def continue_segment(
+    model: Walker,
+    visits: Mapping[str, Array],
+    restart: Array,
+    first: Array,
+    valid: Array,
+    carry: LineCarry,
+    solver: SolverOptions,
+    newton: NewtonOptions,
+) -> tuple[LineCarry, Gait]:
+    """Gaits at ``L`` consecutive visits of one continuation line, in visiting order.
+
+    Args:
+        visits: dict of ``(L,)`` parameter arrays, one entry per visit.
+        restart: ``(L,)`` True where the visit starts from the seed's gait
+            instead of the previous visit's (:func:`visiting_order`).
+        first: ``(L,)`` True at the line's seed point (its first visit).
+        valid: ``(L,)`` False at padding visits: skipped (a real branch, not
+            a masked one, as long as ``valid`` is not batched: every line of a
+            call shares it), their gaits zeros and the carry unchanged.
+        carry: from the visit before (:func:`line_start` before the first).
+
+    Returns:
+        The carry after the last visit, and a :class:`Gait` of ``(L,)`` leaves.
+    """
+    guess_fn = model.initial_guess
+
+    def search(carry: LineCarry, p, from_seed, is_first):
+        start_v = jnp.where(from_seed, carry.v_seed, carry.v_prev)
+        start_ok = jnp.where(from_seed, carry.have_seed, carry.have_prev)
+        v0 = jnp.where(start_ok, start_v, guess_fn(p))
+        gait = find_gait(model, p, v0, solver, newton)
+        ok = gait.status == Status.OK
+        seeded = is_first & ok
+        after = LineCarry(
+            v_prev=jnp.where(ok, gait.v, start_v),
+            have_prev=ok | start_ok,
+            v_seed=jnp.where(seeded, gait.v, carry.v_seed),
+            have_seed=carry.have_seed | seeded,
+        )
+        return after, gait
+
+    # One trace serves both the shape of a skipped visit's output and the branch
+    # that runs (jit caches the trace of one function object at one signature).
+    search = jax.jit(search)
+
+    def visit(carry, xs):
+        p, from_seed, is_first, real = xs
+        shapes = jax.eval_shape(search, carry, p, from_seed, is_first)
+        skipped = lambda c, *_: (c, jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), shapes[1]))
+        return jax.lax.cond(real, search, skipped, carry, p, from_seed, is_first)
+
+    return jax.lax.scan(visit, carry, (dict(visits), restart, first, valid))
+
+
 def continue_along(
     model: Walker,
     params_line: Mapping[str, Array],
@@ -55,13 +134,12 @@ def continue_along(
     v_start: Array | None = None,
     have_start: Array | bool = False,
 ) -> Gait:
-    """Gaits along one line of the continuation axis (one config per entry).
+    """Gaits along one whole line of the continuation axis (one config per
+    entry): :func:`continue_segment` over every visit at once.
 
     Args:
         params_line: dict of ``(n,)`` parameter arrays along the axis.
-        order, restart: from :func:`visiting_order`; NumPy or traced arrays (a
-            jitted caller passes them as inputs, so one program serves every
-            seed position of a line length).
+        order, restart: from :func:`visiting_order` (NumPy arrays).
         v_start: ``(n_v,)`` start of the seed point (the first visited) in
             place of the model's initial guess, used where ``have_start``
             (e.g. a converged gait of a seed line, :mod:`jaxwalk.seedline`). It
@@ -71,32 +149,14 @@ def continue_along(
     Returns:
         A :class:`Gait` whose leaves have leading dimension ``n``, in grid order.
     """
-    guess_fn = model.initial_guess
+    order = np.asarray(order)
     some = next(iter(params_line.values()))
-    n_v = len(model.section_names)
-
-    def visit(carry, xs):
-        v_prev, have_prev, v_seed, have_seed = carry
-        index, from_seed = xs
-        p = {k: val[index] for k, val in params_line.items()}
-        start_v = jnp.where(from_seed, v_seed, v_prev)
-        start_ok = jnp.where(from_seed, have_seed, have_prev)
-        v0 = jnp.where(start_ok, start_v, guess_fn(p))
-        gait = find_gait(model, p, v0, solver, newton)
-        ok = gait.status == Status.OK
-        first = index == order[0]
-        v_seed = jnp.where(first & ok, gait.v, v_seed)
-        have_seed = have_seed | (first & ok)
-        v_prev = jnp.where(ok, gait.v, start_v)
-        have_prev = ok | start_ok
-        return (v_prev, have_prev, v_seed, have_seed), gait
-
-    order, restart = jnp.asarray(order), jnp.asarray(restart)
-    have = jnp.asarray(have_start, bool)
-    v0 = jnp.zeros(n_v, some.dtype) if v_start is None else jnp.where(have, jnp.asarray(v_start, some.dtype), 0.0)
-    carry0 = (v0, have, v0, have)
-    _, gaits = jax.lax.scan(visit, carry0, (order, restart))
-    inverse = jnp.argsort(order)
+    n = len(order)
+    visits = {k: jnp.asarray(val)[order] for k, val in params_line.items()}
+    first = np.arange(n) == 0
+    carry = line_start(len(model.section_names), some.dtype, v_start, have_start)
+    _, gaits = continue_segment(model, visits, jnp.asarray(restart), first, np.ones(n, bool), carry, solver, newton)
+    inverse = np.argsort(order)
     return jax.tree_util.tree_map(lambda x: x[inverse], gaits)
 
 

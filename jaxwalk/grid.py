@@ -22,12 +22,15 @@ import numpy as np
 
 from jaxwalk import program_cache
 from jaxwalk.attractor import AttractorOptions
-from jaxwalk.continuation import continue_along, seed_index, visiting_order
+from jaxwalk.batching import FLAT_SUB_BATCH as FLAT_SUB_BATCH, sub_batch_size
+from jaxwalk.batching import in_sub_batches as _in_sub_batches, run_chunks as _run_chunks
+from jaxwalk.continuation import seed_index
 from jaxwalk.gait import Gait, NewtonOptions, find_gait
+from jaxwalk.lines import run_lines
+from jaxwalk.parameters import parameter_grid as parameter_grid
 from jaxwalk.step import SolverOptions
 from jaxwalk.stepdown import StepDownOptions, h_max
 from jaxwalk.walker import Walker
-from jaxwalk.batching import in_sub_batches as _in_sub_batches, run_chunks as _run_chunks
 
 
 @dataclasses.dataclass(frozen=True)
@@ -57,50 +60,6 @@ class AnalysisOptions:
     global_stability: object | None = None
 
 
-def parameter_grid(model: Walker, fixed: Mapping[str, float], grid: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
-    """Every model parameter as a float64 array of the grid's shape ``S``.
-
-    Swept names vary along their axis (axes in ``grid``'s order); fixed names
-    and defaults are constant.
-    """
-    axes = list(grid)
-    shape = tuple(len(np.atleast_1d(grid[a])) for a in axes)
-    out = {}
-    for spec in model.parameters:
-        if spec.name in grid:
-            k = axes.index(spec.name)
-            line = np.asarray(grid[spec.name], np.float64)
-            view = [1] * len(shape)
-            view[k] = len(line)
-            out[spec.name] = np.broadcast_to(line.reshape(view), shape).copy()
-        else:
-            value = float(fixed.get(spec.name, spec.default))
-            out[spec.name] = np.full(shape, value)
-    return out
-
-
-#: Continuation lines are heavier than independent rows: a chunk of lines is
-#: split over the threads when each gets two.
-MIN_LINES_PER_THREAD = 2
-#: Continuation lines run padded to a multiple of this many points (copies of the
-#: last point visited, visited after the real ones: the real walk is unchanged),
-#: so grids whose lines fall in one class share one compiled program and a sweep
-#: of a new size there compiles nothing. Lines of 64 (the flat-foot maps) pay nothing.
-LINE_LENGTH_QUANTUM = 64
-
-
-#: Configurations (or lines) one worker thread advances together on the flat
-#: step engine, every model alike: there a batch's cost is set by its average
-#: lane, not by the slowest at every phase boundary (jaxwalk.flatstep).
-FLAT_SUB_BATCH = 64
-
-
-def sub_batch_size(model: Walker, solver: SolverOptions) -> int:
-    """``lax.map`` sub-batch size: :data:`FLAT_SUB_BATCH` on the flat engine,
-    else the model's ``lockstep_batch`` (the nested engine's per-model setting)."""
-    return FLAT_SUB_BATCH if solver.engine == "flat" else model.lockstep_batch
-
-
 @functools.lru_cache(maxsize=None)
 def _independent_program(model: Walker, solver: SolverOptions, newton: NewtonOptions):
     """Gait searches from the model's guess, :func:`sub_batch_size` configurations
@@ -111,100 +70,9 @@ def _independent_program(model: Walker, solver: SolverOptions, newton: NewtonOpt
     def one(p):
         return find_gait(model, p, model.initial_guess(p), solver, newton)
 
-    # Per configuration the same computation as continuation.gaits_independent.
     program = jax.jit(lambda p: _in_sub_batches(one, dict(p), sub_batch_size(model, solver)))
     program_cache.register(program, "independent", model, solver, newton)
     return program
-
-
-@functools.lru_cache(maxsize=None)
-def _continuation_program(model: Walker, solver: SolverOptions, newton: NewtonOptions):
-    """One jitted program for every continuation line of a model and settings:
-    the visiting order, restart flags and start point are inputs (rows of
-    :func:`line_rows`), so lines of one length share one compilation whatever
-    their seed, and a seed line (:mod:`jaxwalk.seedline`) reuses it."""
-
-    def line(p):
-        p = dict(p)
-        order, restart = p.pop("__order__"), p.pop("__restart__")
-        v0, have = p.pop("__v0__"), p.pop("__v0_ok__")
-        return continue_along(model, p, order, restart, solver, newton, v0, have)
-
-    # Lines in sub-batches of sub_batch_size(), as configurations in
-    # _independent_program: a line waits at every point for the slowest line of
-    # its sub-batch (the flat-foot walker's hardest map quarter ran 6x faster
-    # at 2 lines per sub-batch than at 8, 13x at 1: benchmarks/README.md).
-    program = jax.jit(lambda rows: _in_sub_batches(line, dict(rows), sub_batch_size(model, solver)))
-    program_cache.register(program, "continuation", model, solver, newton)
-    return program
-
-
-def line_rows(
-    model: Walker, lines: Mapping[str, np.ndarray], seed: int, starts: np.ndarray | None = None, length: int | None = None
-) -> dict[str, np.ndarray]:
-    """The inputs of :func:`_continuation_program` for ``n_lines`` lines of length ``n``.
-
-    Args:
-        lines: every parameter as an ``(n_lines, n)`` array.
-        seed: index along the lines where each walk starts (:func:`seed_index`).
-        starts: ``(n_lines, n_v)`` start points of the seed points, NaN rows
-            where a line has none (it starts from the model's initial guess);
-            ``None``: none has one.
-        length: pad every line to this length (to run another line length's
-            program): copies of the last point visited, visited after every
-            real point, so the real points' walk is unchanged.
-    """
-    n_lines, n = next(iter(lines.values())).shape
-    order, restart = visiting_order(n, seed)
-    if length is not None and length > n:
-        last = int(order[-1])
-        lines = {k: np.concatenate([v, np.repeat(v[:, last : last + 1], length - n, axis=1)], axis=1) for k, v in lines.items()}
-        order = np.concatenate([order, np.arange(n, length, dtype=order.dtype)])
-        restart = np.concatenate([restart, np.zeros(length - n, bool)])
-        n = length
-    n_v = len(model.section_names)
-    if starts is None:
-        starts = np.full((n_lines, n_v), np.nan)
-    starts = np.asarray(starts, np.float64).reshape(n_lines, n_v)
-    have = np.isfinite(starts).all(axis=-1)
-    return {
-        **lines,
-        "__order__": np.broadcast_to(order, (n_lines, n)).copy(),
-        "__restart__": np.broadcast_to(restart, (n_lines, n)).copy(),
-        "__v0__": np.where(have[:, None], starts, 0.0),
-        "__v0_ok__": have,
-    }
-
-
-def padded_length(n: int) -> int:
-    """The length continuation lines of ``n`` points run at: :data:`LINE_LENGTH_QUANTUM`'s next multiple."""
-    return -(-n // LINE_LENGTH_QUANTUM) * LINE_LENGTH_QUANTUM
-
-
-def run_lines(
-    model: Walker,
-    lines: Mapping[str, np.ndarray],
-    seed: int,
-    options: AnalysisOptions,
-    starts: np.ndarray | None = None,
-    progress: Callable[[int], None] | None = None,
-    lines_per_call: int | None = None,
-    length: int | None = None,
-) -> Gait:
-    """Continuation along ``n_lines`` lines (``(n_lines, n)`` parameter arrays),
-    chunked and split over the worker threads; a :class:`Gait` of ``(n_lines, n)`` leaves.
-    ``lines_per_call`` pads each call to that many lines (default: as many as
-    ``options.chunk_size`` allows, fewer for fewer lines: :func:`_run_chunks`);
-    ``length`` pads each line (:func:`line_rows`; the result keeps ``n``)."""
-    n = next(iter(lines.values())).shape[1]
-    rows = line_rows(model, lines, seed, starts, length)
-    n_run = rows["__order__"].shape[1]
-    program = _continuation_program(model, options.solver, options.newton)
-    line_progress = None if progress is None else (lambda k: progress(k * n))
-    gaits = _run_chunks(
-        program, rows, max(1, options.chunk_size // n_run), line_progress, MIN_LINES_PER_THREAD, lines_per_call
-    )
-    return jax.tree_util.tree_map(lambda x: x[:, :n], gaits)
 
 
 @functools.lru_cache(maxsize=None)
@@ -363,7 +231,7 @@ def analyse_chunk(
         rows = {n: v.reshape(-1, len(values)) for n, v in moved.items()}
         if starts is not None:
             starts = np.asarray(starts, np.float64).reshape(-1, len(model.section_names))
-        gaits = run_lines(model, rows, seed, options, starts, progress, length=padded_length(len(values)))
+        gaits = run_lines(model, rows, seed, options.solver, options.newton, options.chunk_size, starts, progress)
 
         def unflatten(x):
             x = x.reshape(moved_shape + x.shape[2:])

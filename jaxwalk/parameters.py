@@ -12,6 +12,8 @@ import dataclasses
 import math
 from typing import Mapping
 
+import numpy as np
+
 
 @dataclasses.dataclass(frozen=True)
 class ParamSpec:
@@ -84,3 +86,26 @@ def resolve(specs: Mapping[str, ParamSpec], overrides: Mapping[str, float], mode
     for name, value in values.items():
         specs[name].check(value)
     return values
+
+
+def parameter_grid(model, fixed: Mapping[str, float], grid: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Every parameter of ``model`` (a :class:`jaxwalk.walker.Walker`) as a
+    float64 array of the grid's shape ``S``.
+
+    Swept names vary along their axis (axes in ``grid``'s order); fixed names
+    and defaults are constant.
+    """
+    axes = list(grid)
+    shape = tuple(len(np.atleast_1d(grid[a])) for a in axes)
+    out = {}
+    for spec in model.parameters:
+        if spec.name in grid:
+            k = axes.index(spec.name)
+            line = np.asarray(grid[spec.name], np.float64)
+            view = [1] * len(shape)
+            view[k] = len(line)
+            out[spec.name] = np.broadcast_to(line.reshape(view), shape).copy()
+        else:
+            value = float(fixed.get(spec.name, spec.default))
+            out[spec.name] = np.full(shape, value)
+    return out

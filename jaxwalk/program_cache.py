@@ -37,11 +37,12 @@ import numpy as np
 from jax import export
 
 from jaxwalk import cache
+from jaxwalk.continuation import LineCarry
 from jaxwalk.gait import Gait
 from jaxwalk.stepdown import StepDownResult
 
 #: Output types of the grid programs, so that their exported form can be saved.
-for _type in (Gait, StepDownResult):
+for _type in (Gait, LineCarry, StepDownResult):
     export.register_namedtuple_serialization(_type, serialized_name=f"{_type.__module__}.{_type.__qualname__}")
 
 _LIBRARIES = ("jax", "jaxlib", "diffrax", "equinox", "optimistix", "lineax", "numpy")

@@ -15,9 +15,8 @@ there is one seed line per combination of the others.
 The seed lines run once for the whole grid, before its blocks; each block is
 handed the start points of its own lines (``starts`` of
 :func:`jaxwalk.grid.analyse_chunk`), so a block gets the same starts whichever
-process computes it and whether or not the run was resumed. They reuse the
-A-lines' compiled program when B is no longer than A (the visiting order and
-start points are runtime inputs; shorter seed lines are padded).
+process computes it and whether or not the run was resumed. They run the
+A-lines' compiled program (lines of every length do: :mod:`jaxwalk.lines`).
 """
 
 from __future__ import annotations
@@ -28,6 +27,8 @@ from typing import Mapping, NamedTuple
 import numpy as np
 
 from jaxwalk.continuation import seed_index
+from jaxwalk.lines import run_lines
+from jaxwalk.parameters import parameter_grid
 from jaxwalk.walker import Walker
 
 
@@ -76,8 +77,6 @@ def seed_lines(model: Walker, fixed: Mapping[str, float], grid: Mapping[str, np.
         continuation_axis: A, the axis the grid's lines follow.
         seed_axis: B, another grid axis.
     """
-    from jaxwalk.grid import chunk_shape, padded_length, parameter_grid, run_lines
-
     check_axes(grid, continuation_axis, seed_axis)
     axes = list(grid)
     a_values = np.asarray(grid[continuation_axis], np.float64)
@@ -91,17 +90,8 @@ def seed_lines(model: Walker, fixed: Mapping[str, float], grid: Mapping[str, np.
     moved = {n: np.moveaxis(v, k, -1) for n, v in params.items()}
     moved_shape = next(iter(moved.values())).shape
     rows = {n: v.reshape(-1, len(b_values)) for n, v in moved.items()}
-    # Calls of as many lines as the grid's first block has, and lines as long
-    # as A's (padded when B is shorter), so that with len(B) <= len(A) the seed
-    # lines run the A-lines' compiled program (the padding costs at most a
-    # block's work; a compile of the flat-foot walker costs minutes).
-    k_a = axes.index(continuation_axis)
-    shape = tuple(len(np.atleast_1d(v)) for v in grid.values())
-    n_block = int(np.prod(chunk_shape(shape, options.chunk_size, k_a))) // shape[k_a]
-    length = padded_length(shape[k_a])  # as the A-lines run (jaxwalk.grid.LINE_LENGTH_QUANTUM)
-    per_call = min(max(1, options.chunk_size // length), 1 << max(0, (n_block - 1).bit_length()))
     seed_b = seed_index(b_values, model.param_specs[seed_axis].default)
-    gaits = run_lines(model, rows, seed_b, options, lines_per_call=per_call, length=length)
+    gaits = run_lines(model, rows, seed_b, options.solver, options.newton, options.chunk_size)
 
     def back(x):
         x = np.asarray(x).reshape(moved_shape + x.shape[2:])

@@ -95,17 +95,18 @@ def test_a_rerun_compiles_and_traces_nothing_and_is_bit_identical(two_runs):
 
 @pytest.mark.slow
 def test_a_sweep_of_a_new_size_compiles_nothing(two_runs):
-    """Continuation lines run padded to a multiple of 64 points (jaxwalk.grid):
-    after the 8-point sweep, one of 50 points reuses its programs."""
+    """Continuation lines run in segments of 64 visits, every call of one shape
+    (jaxwalk.lines): after the 8-point sweep, one of 150 points (three segments)
+    reuses its programs."""
     tmp, _ = two_runs
     config = tmp / "resized.toml"
-    config.write_text(textwrap.dedent(SWEEP.format(num=50)))
+    config.write_text(textwrap.dedent(SWEEP.format(num=150)))
     report, stderr = run_probe(
         "sweep", str(config), "--out", str(tmp / "resized"), "--no-plot", "--no-progress", env={"XDG_CACHE_HOME": str(tmp / "xdg")}
     )
     assert report["status"] == 0 and report["compiled"] == 0 and report["traced"] == 0, stderr[-2000:]
     with xr.open_dataset(tmp / "resized" / "small.zarr", engine="zarr") as ds:
-        assert ds.sizes["gamma"] == 50 and (ds.status.values == 0).all()
+        assert ds.sizes["gamma"] == 150 and (ds.status.values == 0).all()
 
 
 @pytest.mark.slow

@@ -17,6 +17,7 @@ import pytest
 
 from jaxwalk import grid as G
 from jaxwalk import cache, program_cache
+from jaxwalk.lines import segment_inputs, segment_program
 from jaxwalk.models.compass import CompassWalker
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -75,24 +76,24 @@ def test_a_rerun_loads_the_program_and_computes_the_same(disk_cache, tmp_path):
 
 
 def test_exported_program_equals_the_traced_one(disk_cache):
-    program = G._continuation_program(MODEL, OPTIONS.solver, OPTIONS.newton)
+    program = segment_program(MODEL, OPTIONS.solver, OPTIONS.newton)
     lines = {k: v.T for k, v in G.parameter_grid(MODEL, {}, GRID).items()}  # (m_h, gamma): lines along gamma
-    rows = G.line_rows(MODEL, lines, seed=3)
+    rows = segment_inputs(MODEL, lines, seed=3)[0][0]
     plain = program(rows)
     exported = program_cache.lower(program, rows).compile()(rows)
     for a, b in zip(jax.tree_util.tree_leaves(plain), jax.tree_util.tree_leaves(exported)):
         np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
-    assert (np.asarray(plain.status) == 0).sum() >= 12
+    assert (np.asarray(plain[1].status) == 0).sum() >= 12  # (carry, gaits)
 
 
 def test_key_follows_what_the_trace_depends_on(monkeypatch):
-    program = G._continuation_program(MODEL, OPTIONS.solver, OPTIONS.newton)
+    program = segment_program(MODEL, OPTIONS.solver, OPTIONS.newton)
     rows = {"a": np.zeros((2, 8)), "b": np.zeros((2, 8), bool)}
     key = program_cache.program_key(program, rows)
     assert key == program_cache.program_key(program, {"a": np.ones((2, 8)), "b": np.ones((2, 8), bool)})  # values: no
     assert key != program_cache.program_key(program, {"a": np.zeros((4, 8)), "b": np.zeros((4, 8), bool)})  # shapes
     assert key != program_cache.program_key(program, {"a": np.zeros((2, 8), np.float32), "b": np.zeros((2, 8), bool)})
-    other_settings = G._continuation_program(MODEL, replace(OPTIONS.solver, rtol=OPTIONS.solver.rtol * 10), OPTIONS.newton)
+    other_settings = segment_program(MODEL, replace(OPTIONS.solver, rtol=OPTIONS.solver.rtol * 10), OPTIONS.newton)
     assert key != program_cache.program_key(other_settings, rows)
     assert program_cache.program_key(jax.jit(lambda x: x), rows) is None  # not registered: never cached
     # The model's source outside jaxwalk (this file) is part of the key ...

@@ -12,6 +12,7 @@ import xarray as xr
 
 from jaxwalk import cli, grid as G
 from jaxwalk.gait import find_gait
+from jaxwalk.lines import segment_program
 from jaxwalk.models import get_model
 from jaxwalk.seedline import seed_lines
 from jaxwalk.sweep import loads_config, run_sweep
@@ -39,7 +40,7 @@ seed_axis = "gamma"
 
 
 def _program():
-    return G._continuation_program(MODEL, OPTIONS.solver, OPTIONS.newton)
+    return segment_program(MODEL, OPTIONS.solver, OPTIONS.newton)
 
 
 @pytest.fixture(scope="module")
@@ -63,15 +64,15 @@ def test_seeding_finds_the_lines_lost_without_it(runs):
 
 
 def test_seed_line_reuses_the_compiled_program(runs):
-    """Visiting order, restarts and start points are inputs: a seed line as long
-    as the lines (and padded to their batch) compiles nothing new."""
+    """Visiting order, restarts and start points are inputs, lines run in
+    fixed-length segments: a seed line compiles nothing new."""
     _, _, before, after = runs
     assert after == before
 
 
-def test_shorter_seed_line_is_padded_into_the_same_program(runs):
-    """Two slopes, three hip masses: the seed line (length 2) is padded to the
-    lines' length and runs the compiled program; its points are the long one's."""
+def test_shorter_seed_line_runs_the_same_program(runs):
+    """Two slopes, three hip masses: the seed line (length 2) runs the compiled
+    program (one segment, most of it skipped); its points are the long one's."""
     _, seeded, _, compiled = runs
     short = {"gamma": GRID["gamma"][:2], "m_h": GRID["m_h"]}
     seeds = seed_lines(MODEL, {}, short, "m_h", "gamma", OPTIONS)

@@ -1,0 +1,151 @@
+"""Continuation lines run in fixed-length segments, so every line length shares one program.
+
+A continuation line (:mod:`jaxwalk.continuation`) visits its points in an
+order set by its seed (:func:`~jaxwalk.continuation.visiting_order`). Here the
+visits are cut into segments of :data:`SEGMENT_LENGTH`; one jitted program
+advances a call of lines by one segment, taking the lines' carry
+(:class:`~jaxwalk.continuation.LineCarry`) in and handing it out, and a line
+of any length is its segments run one after the other. The last segment's
+padding visits are skipped (a real branch of the program), so a line costs
+its own points only, and grids of every size, seed lines included, run the
+same compiled program: after a model's first run no sweep of it compiles again.
+"""
+
+from __future__ import annotations
+
+import functools
+from typing import Callable, Mapping
+
+import jax
+import numpy as np
+
+from jaxwalk import program_cache
+from jaxwalk.batching import in_sub_batches, run_chunks, sub_batch_size
+from jaxwalk.continuation import LineCarry, continue_segment, visiting_order
+from jaxwalk.gait import Gait, NewtonOptions
+from jaxwalk.step import SolverOptions
+from jaxwalk.walker import Walker
+
+#: Visits per segment: one program call advances every line of a call by this many.
+SEGMENT_LENGTH = 64
+#: Continuation lines are heavier than independent rows: a call of lines is
+#: split over the threads when each gets two.
+MIN_LINES_PER_THREAD = 2
+
+_CARRY = LineCarry._fields
+_VALID = "__visit_valid__"
+
+
+@functools.lru_cache(maxsize=None)
+def segment_program(model: Walker, solver: SolverOptions, newton: NewtonOptions):
+    """One jitted program for every continuation line of a model and settings.
+
+    Its input is a dict of rows, one per line: each parameter, ``__restart__``
+    and ``__first__`` as ``(n_lines, L)`` arrays over the segment's visits,
+    :class:`~jaxwalk.continuation.LineCarry`'s fields as ``(n_lines, ...)``,
+    and ``__visit_valid__`` ``(n_lines, L)``, the same in every row (the
+    program reads row 0, so padding visits are skipped, not masked). It returns
+    ``(carry, gaits)`` with the same leading axis."""
+
+    def line(rows, valid):
+        rows = dict(rows)
+        restart, first = rows.pop("__restart__"), rows.pop("__first__")
+        carry = LineCarry(*(rows.pop(name) for name in _CARRY))
+        return continue_segment(model, rows, restart, first, valid, carry, solver, newton)
+
+    def program(rows):
+        rows = dict(rows)
+        valid = rows.pop(_VALID)[0]
+        # Lines in sub-batches of sub_batch_size(): a line waits at every visit for
+        # the slowest line of its sub-batch (the flat-foot walker's hardest map
+        # quarter ran 6x faster at 2 lines per sub-batch than at 8, 13x at 1:
+        # benchmarks/README.md).
+        return in_sub_batches(lambda r: line(r, valid), rows, sub_batch_size(model, solver))
+
+    program = jax.jit(program)
+    program_cache.register(program, "continuation", model, solver, newton)
+    return program
+
+
+def lines_per_call(chunk_size: int) -> int:
+    """Lines one program call advances: as many segments as ``chunk_size`` points allow, at least one."""
+    return max(1, chunk_size // SEGMENT_LENGTH)
+
+
+def run_lines(
+    model: Walker,
+    lines: Mapping[str, np.ndarray],
+    seed: int,
+    solver: SolverOptions,
+    newton: NewtonOptions,
+    chunk_size: int,
+    starts: np.ndarray | None = None,
+    progress: Callable[[int], None] | None = None,
+) -> Gait:
+    """Continuation along ``n_lines`` lines of ``n`` points, segment by segment.
+
+    Args:
+        lines: every parameter as an ``(n_lines, n)`` array, in grid order.
+        seed: index along the lines where each walk starts
+            (:func:`~jaxwalk.continuation.seed_index`).
+        chunk_size: points per program call (:func:`lines_per_call` lines of a segment).
+        starts: ``(n_lines, n_v)`` start points of the seed points, NaN rows
+            where a line has none (it starts from the model's initial guess);
+            ``None``: none has one.
+        progress: called with the number of points finished after each call.
+
+    Returns:
+        A :class:`Gait` of ``(n_lines, n)`` leaves, in grid order.
+    """
+    n_lines, n = next(iter(lines.values())).shape
+    segments, order = segment_inputs(model, lines, seed, starts)
+    program = segment_program(model, solver, newton)
+    carry, pieces = {}, []
+    for rows in segments:
+        rows = {**rows, **carry}
+        real = int(rows[_VALID][0].sum())
+        done = None if progress is None else (lambda count, real=real: progress(count * real))
+        out_carry, gaits = run_chunks(program, rows, lines_per_call(chunk_size), done, MIN_LINES_PER_THREAD)
+        carry = dict(zip(_CARRY, out_carry))
+        pieces.append(gaits)
+    gaits = jax.tree_util.tree_map(lambda *xs: np.concatenate(xs, axis=1)[:, :n], *pieces)
+    inverse = np.argsort(order)
+    return jax.tree_util.tree_map(lambda x: x[:, inverse], gaits)
+
+
+def segment_inputs(
+    model: Walker, lines: Mapping[str, np.ndarray], seed: int, starts: np.ndarray | None = None
+) -> tuple[list[dict[str, np.ndarray]], np.ndarray]:
+    """The rows of :func:`segment_program` for each segment of ``n_lines`` lines
+    (arguments as :func:`run_lines`), every one holding the carry before the
+    line's first visit (a run replaces it by the carry the segment before
+    handed out), and the visiting order (``(n,)``: visit ``k`` is point ``order[k]``)."""
+    n_lines, n = next(iter(lines.values())).shape
+    order, restart = visiting_order(n, seed)
+    padded = -(-n // SEGMENT_LENGTH) * SEGMENT_LENGTH
+    visit_order = np.concatenate([order, np.full(padded - n, order[-1], order.dtype)])
+    visits = {k: np.asarray(v, np.float64)[:, visit_order] for k, v in lines.items()}
+    per_visit = {
+        "__restart__": np.concatenate([restart, np.zeros(padded - n, bool)]),
+        "__first__": np.arange(padded) == 0,
+        _VALID: np.arange(padded) < n,
+    }
+    carry = _initial_carry(model, n_lines, starts)
+    segments = []
+    for start in range(0, padded, SEGMENT_LENGTH):
+        part = slice(start, start + SEGMENT_LENGTH)
+        rows = {name: v[:, part] for name, v in visits.items()}
+        rows.update({name: np.broadcast_to(v[part], (n_lines, SEGMENT_LENGTH)).copy() for name, v in per_visit.items()})
+        segments.append({**rows, **carry})
+    return segments, order
+
+
+def _initial_carry(model: Walker, n_lines: int, starts: np.ndarray | None) -> dict[str, np.ndarray]:
+    """:class:`LineCarry` rows before the first visit (``starts`` as in :func:`run_lines`)."""
+    n_v = len(model.section_names)
+    if starts is None:
+        starts = np.full((n_lines, n_v), np.nan)
+    starts = np.asarray(starts, np.float64).reshape(n_lines, n_v)
+    have = np.isfinite(starts).all(axis=-1)
+    v0 = np.where(have[:, None], starts, 0.0)
+    return {"v_prev": v0, "have_prev": have, "v_seed": v0.copy(), "have_seed": have.copy()}
