@@ -22,7 +22,7 @@ import numpy as np
 
 from jaxwalk import program_cache
 from jaxwalk.attractor import AttractorOptions
-from jaxwalk.batching import FLAT_SUB_BATCH as FLAT_SUB_BATCH, sub_batch_size
+from jaxwalk.batching import sub_batch_size
 from jaxwalk.batching import in_sub_batches as _in_sub_batches, run_chunks as _run_chunks
 from jaxwalk.continuation import seed_index
 from jaxwalk.gait import Gait, NewtonOptions, find_gait
