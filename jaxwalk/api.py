@@ -25,7 +25,7 @@ from jaxwalk.sweep.config import DEFAULT_MAX_POINTS, ConfigError
 Config = "str | os.PathLike | Mapping[str, Any]"
 
 
-def _read(config, *, load: Callable, loads: Callable, parse: Callable, kind: str, **extra):
+def _read(config, *, load: Callable, loads: Callable, parse: Callable, checked: type, kind: str, **extra):
     """A checked config from a path, TOML text (a string with a newline) or a dict."""
     if isinstance(config, Mapping):
         return parse(dict(config), source=f"<{kind} dict>", **extra)
@@ -33,7 +33,7 @@ def _read(config, *, load: Callable, loads: Callable, parse: Callable, kind: str
         return loads(config, source=f"<{kind} text>", **extra)
     if isinstance(config, (str, os.PathLike)):
         return load(config, **extra)
-    if hasattr(config, "name") and hasattr(config, "model"):  # already a checked config
+    if isinstance(config, checked):  # already a checked config
         return config
     raise ConfigError(f"config: expected a path, TOML text or a dict, got {type(config).__name__}")
 
@@ -71,11 +71,14 @@ def sweep(
     Raises:
         ConfigError: bad config or output directory, before anything is computed.
     """
-    from jaxwalk.sweep.config import load_config, loads_config, parse_config
+    from jaxwalk.sweep.config import SweepConfig, load_config, loads_config, parse_config
     from jaxwalk.sweep.integrity import check_complete
     from jaxwalk.sweep.runner import run_sweep
 
-    cfg = _read(config, load=load_config, loads=loads_config, parse=parse_config, kind="sweep", max_points=max_points)
+    cfg = _read(
+        config, load=load_config, loads=loads_config, parse=parse_config, checked=SweepConfig, kind="sweep",
+        max_points=max_points,
+    )
     if plot and out is None:
         raise ConfigError("plot=True needs out: the directory to write the figures into")
     with tempfile.TemporaryDirectory(prefix="jaxwalk-sweep-") as tmp:
@@ -96,10 +99,11 @@ def simulate(
     Raises:
         ConfigError: bad config or output directory, or no gait to start from.
     """
-    from jaxwalk.simulate import load_simulate_config, loads_simulate_config, parse_simulate_config, run_simulation
+    from jaxwalk.simulate.config import SimulateConfig, load_simulate_config, loads_simulate_config, parse_simulate_config
+    from jaxwalk.simulate.run import run_simulation
 
     cfg = _read(
-        config, load=load_simulate_config, loads=loads_simulate_config, parse=parse_simulate_config, kind="simulate",
+        config, load=load_simulate_config, loads=loads_simulate_config, parse=parse_simulate_config, checked=SimulateConfig, kind="simulate",
         steps=steps, drop=drop,
     )
     if (plot or gif) and out is None:
@@ -123,13 +127,14 @@ def optimize(
     Raises:
         ConfigError: bad config, heatmap store or output directory.
     """
-    from jaxwalk.optimize import load_optimize_config, parse_optimize_config, run_optimize
+    from jaxwalk.optimize.config import OptimizeConfig, load_optimize_config, parse_optimize_config
+    from jaxwalk.optimize.output import run_optimize
     from jaxwalk.sweep.config import parse_toml
 
     def loads(text, source):
         return parse_optimize_config(parse_toml(text, source=source), source=source, text=text)
 
-    cfg = _read(config, load=load_optimize_config, loads=loads, parse=parse_optimize_config, kind="optimize")
+    cfg = _read(config, load=load_optimize_config, loads=loads, parse=parse_optimize_config, checked=OptimizeConfig, kind="optimize")
     if plot and out is None:
         raise ConfigError("plot=True needs out: the directory to write the figure into")
     heatmap_path = None if isinstance(heatmap, bool) else heatmap

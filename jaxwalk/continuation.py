@@ -159,11 +159,3 @@ def continue_along(
     inverse = np.argsort(order)
     return jax.tree_util.tree_map(lambda x: x[inverse], gaits)
 
-
-def gaits_independent(model: Walker, params_flat: Mapping[str, Array], solver: SolverOptions, newton: NewtonOptions) -> Gait:
-    """Gaits of a flat batch of configs, each from the model's initial guess."""
-
-    def one(p):
-        return find_gait(model, p, model.initial_guess(p), solver, newton)
-
-    return jax.vmap(one)(dict(params_flat))

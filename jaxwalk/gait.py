@@ -124,14 +124,27 @@ def find_gait(
     After the update that falls below ``tol``, one more evaluation at the
     converged point gives the reported Jacobian, period and step length.
     """
-    residual = step_residual(model, params, solver)
-    n_v = v0.shape[0]
-    eye = jnp.eye(n_v, dtype=v0.dtype)
     running = jnp.int8(Status.IN_PROGRESS)
-    dtype = v0.dtype
+    n_v, dtype = v0.shape[0], v0.dtype
+    nan = jnp.full((), jnp.nan, dtype)
+    carry0 = {
+        "v": v0,
+        "k": jnp.zeros((), jnp.int32),
+        "status": running,
+        "converged": jnp.asarray(False),
+        "jac": jnp.full((n_v, n_v), jnp.nan, dtype),
+        "period": nan,
+        "length": nan,
+        "work": nan,
+    }
+    body = _newton_iteration(step_residual(model, params, solver), newton, jnp.eye(n_v, dtype=dtype))
+    out = jax.lax.while_loop(lambda carry: carry["status"] == running, body, carry0)
+    return _gait(model, params, out)
 
-    def cond(carry):
-        return carry["status"] == running
+
+def _newton_iteration(residual, newton: NewtonOptions, eye: Array):
+    """The body of :func:`find_gait`'s loop: one evaluation and update, over a dict carry."""
+    running = jnp.int8(Status.IN_PROGRESS)
 
     def body(carry):
         # One evaluation per iteration. Once an update was below tol, the next
@@ -164,19 +177,13 @@ def find_gait(
             "work": res.work,
         }
 
-    nan = jnp.full((), jnp.nan, dtype)
-    carry0 = {
-        "v": v0,
-        "k": jnp.zeros((), jnp.int32),
-        "status": running,
-        "converged": jnp.asarray(False),
-        "jac": jnp.full((n_v, n_v), jnp.nan, dtype),
-        "period": nan,
-        "length": nan,
-        "work": nan,
-    }
-    out = jax.lax.while_loop(cond, body, carry0)
+    return body
+
+
+def _gait(model: Walker, params, out: dict) -> Gait:
+    """The :class:`Gait` of the search's last carry: NaN numbers unless it converged."""
     ok = out["status"] == Status.OK
+    eye = jnp.eye(out["v"].shape[0], dtype=out["v"].dtype)
     eig, lam = _stability(jnp.where(ok, out["jac"], eye))
     blank = lambda x: jnp.where(ok, x, jnp.nan)
     return Gait(

@@ -98,20 +98,12 @@ def mass_matrix(points: Callable[[Array], Array], masses: Array, q: Array) -> Ar
     return _mass_from_columns(entries, weights)
 
 
-def applied_forces(
-    points: Callable[[Array], Array], masses: Array, gravity: Array, q: Array, qd: Array
-) -> Array:
-    """Generalized gravity and velocity-product forces ``F_r`` (eq. 7), ``(n_q,)``.
-
-    ``F_r = sum_i T_i^T m_i (g - Tdot_i qd)``; joint torques are added by the caller.
-    """
-    return mass_matrix_and_forces(points, masses, gravity, q, qd)[1]
-
-
 def mass_matrix_and_forces(
     points: Callable[[Array], Array], masses: Array, gravity: Array, q: Array, qd: Array
 ) -> tuple[Array, Array]:
-    """:func:`mass_matrix` and :func:`applied_forces` sharing one Jacobian of ``points``.
+    """:func:`mass_matrix` and the generalized gravity and velocity-product forces
+    ``F_r = sum_i T_i^T m_i (g - Tdot_i qd)`` (eq. 7), ``(n_q,)``, sharing one
+    Jacobian of ``points``; joint torques are added by the caller.
 
     Written entry by entry (each entry a scalar, a vector over the batch under
     ``vmap``): on CPU this is several times faster than ``einsum`` over the

@@ -143,11 +143,12 @@ def step_map(model: Walker, v: Array, params, opts: SolverOptions = SolverOption
         v: ``(n_v,)`` section coordinates (``model.section_names``).
         ground_drop: height (model length units, vertical) by which the ground
             at the next touchdown lies below the stance foot; 0 for the periodic
-            gait, ``h`` for the paper's step-down test.
+            gait, ``h`` for the paper's step-down test. Anything but a literal 0
+            needs a model with a step-down (:attr:`Walker.ground_next`; configs
+            refuse the analyses that would ask otherwise, :func:`jaxwalk.walker.check_supported`).
     """
     y0, phase0, ctx0 = model.section_to_state(v, params)
-    if "ground_next" in model.context:
-        i = model.ctx_index("ground_next")
-        ctx0 = ctx0.at[i].set(-ground_drop * jnp.cos(params["gamma"]))
+    if model.ground_next is not None or not (isinstance(ground_drop, (int, float)) and ground_drop == 0):
+        ctx0 = model.with_ground_drop(ctx0, params, ground_drop)
     res = run_step(model, params, y0, phase0, ctx0, opts)
     return model.state_to_section(res.y, params, res.ctx), res

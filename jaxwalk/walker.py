@@ -19,11 +19,32 @@ Conventions shared by every model
   height, event times) laid out by :attr:`Walker.context`.
 * Guards are positive while a phase goes on; an event is a downward zero crossing
   of the smallest one. Guards that do not apply in a phase return ``1.0``.
+* Every model has a slope parameter ``gamma`` (rad, downhill positive): gravity,
+  the step-down and the figures' world frame read it through :meth:`Walker.slope`.
+
+The contract
+------------
+Methods marked *model* below are required. Beyond them a model may offer
+*capabilities*, each with a default here, that some analyses and outputs need:
+
+* **step-down** (:attr:`Walker.ground_next`): a ``ctx`` entry holding the
+  height of the ground at the next touchdown; the step-down test (``h_max``),
+  the global-stability measures on uneven ground and a simulation's ``drop``
+  need it.
+* **drawing** (:meth:`Walker.skeleton`, :meth:`Walker.foot_points`): the figures
+  and the GIF of ``jaxwalk simulate`` need both.
+* **actuators** (:meth:`Walker.actuator_power`, :meth:`Walker.actuator_work`):
+  default none, a passive walker.
+
+A config that asks for an analysis whose capability the model lacks is refused
+with one line before anything is traced (:func:`check_supported`), never by a
+crash while tracing. ``tests/test_walker_contract.py`` checks every registered
+model against the same properties.
 """
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import Callable, Mapping, NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -33,6 +54,17 @@ from jaxwalk.parameters import ParamSpec
 
 Array = jax.Array
 Params = dict
+
+
+def as_params(values: Mapping[str, float]) -> Params:
+    """Parameter values as the engine's pytree: a dict of float64 scalars."""
+    return {k: jnp.asarray(v, dtype=jnp.float64) for k, v in values.items()}
+
+
+def distal(angle: Array) -> Array:
+    """``(2,)`` unit vector from a segment's proximal to its distal end at ``angle``
+    (the engine's angle convention): ``(sin a, -cos a)``."""
+    return jnp.stack([jnp.sin(angle), -jnp.cos(angle)])
 
 
 class Transition(NamedTuple):
@@ -59,7 +91,14 @@ class Walker:
         context: names of the entries of ``ctx``.
         section_names: names of the independent section coordinates ``v``.
         n_constraints: number of constraint rows (active or not).
+        ground_next: index in ``ctx`` of the ground height at the next touchdown
+            (the step-down capability), or ``None``.
         lockstep_batch: configurations one worker thread runs together in a grid analysis.
+
+    Models are compared and hashed by value, their class and instance
+    attributes (which must be hashable): every jitted program closes over its
+    model and is cached under it, so two ``CompassWalker()`` share every
+    compiled program, while a subclass (another model) gets its own.
     """
 
     name: str = ""
@@ -81,14 +120,23 @@ class Walker:
     #: others (failing steps that integrate long, Newton iterations, drops of
     #: the step-down test: the flat-foot walker, see benchmarks/README.md).
     lockstep_batch: int = 64
+    #: Index of the ground height at the next touchdown in ``ctx`` (slope frame,
+    #: normal to the slope; 0 on the slope itself), which the step-down writes
+    #: (:meth:`with_ground_drop`). ``None``: the model always lands on the
+    #: slope, and the analyses that lower the ground refuse it.
+    ground_next: int | None = None
 
-    # Python identity is the cache key of every jitted function that closes
-    # over a model: one instance per model, shared through the registry.
+    def _identity(self) -> tuple:
+        return type(self), tuple(sorted(vars(self).items()))
+
     def __hash__(self) -> int:
-        return id(self)
+        return hash(self._identity())
 
     def __eq__(self, other: object) -> bool:
-        return self is other
+        return isinstance(other, Walker) and self._identity() == other._identity()
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({', '.join(f'{k}={v!r}' for k, v in sorted(vars(self).items()))})"
 
     @property
     def n_q(self) -> int:
@@ -100,10 +148,28 @@ class Walker:
 
     def default_params(self) -> Params:
         """Defaults as a dict of float64 scalars (a pytree ready for jit)."""
-        return {p.name: jnp.asarray(p.default, dtype=jnp.float64) for p in self.parameters}
+        return as_params({p.name: p.default for p in self.parameters})
 
     def ctx_index(self, name: str) -> int:
+        """Index of the entry ``name`` of ``ctx`` (one-line ``KeyError`` if the model has none)."""
+        if name not in self.context:
+            raise KeyError(f"model '{self.name}' has no '{name}' in its context ({', '.join(self.context)})")
         return self.context.index(name)
+
+    def slope(self, params: Params) -> Array:
+        """The slope angle ``gamma`` (rad, downhill positive)."""
+        return params["gamma"]
+
+    def with_ground_drop(self, ctx: Array, params: Params, drop: Array | float) -> Array:
+        """``ctx`` with the ground at the next touchdown lower by ``drop`` (model
+        length units, vertical): ``ground_next = -drop cos(gamma)`` normal to the slope.
+
+        Raises:
+            ValueError: the model has no step-down (:attr:`ground_next` is ``None``).
+        """
+        if self.ground_next is None:
+            raise ValueError(f"model '{self.name}' {missing(self, 'step_down')}")
+        return ctx.at[self.ground_next].set(-drop * jnp.cos(self.slope(params)))
 
     # ---------------------------------------------------------------- model
     def points(self, q: Array, params: Params) -> Array:
@@ -117,7 +183,7 @@ class Walker:
     def gravity(self, params: Params) -> Array:
         """``(2,)`` gravity in the slope frame, ``g (sin gamma, -cos gamma)``."""
         g = params.get("g", 1.0)
-        gamma = params["gamma"]
+        gamma = self.slope(params)
         return g * jnp.stack([jnp.sin(gamma), -jnp.cos(gamma)])
 
     def constraints(self, q: Array, params: Params, ctx: Array) -> Array:
@@ -136,10 +202,21 @@ class Walker:
         """Elastic energy stored in springs (scalar). Default none."""
         return jnp.zeros((), q.dtype)
 
+    def actuator_power(self, q: Array, qd: Array, params: Params, phase: Array, ctx: Array) -> Array:
+        """*actuators* power of the actuators, ``qd . Q_actuator`` (scalar, model
+        power units); the recorder of ``jaxwalk simulate`` integrates it to work.
+        Default none: a passive walker (see :attr:`actuated`)."""
+        return jnp.zeros((), qd.dtype)
+
     def actuator_work(self, y_start: Array, y_end: Array, params: Params) -> Array:
-        """Work done by the actuators from ``y_start`` to ``y_end`` within one phase
-        (scalar, model energy units). Default none: a passive walker."""
+        """*actuators* work done by the actuators from ``y_start`` to ``y_end`` within one
+        phase (scalar, model energy units). Default none: a passive walker."""
         return jnp.zeros((), y_start.dtype)
+
+    @property
+    def actuated(self) -> bool:
+        """Whether the model defines :meth:`actuator_power` (else no actuator does work)."""
+        return overrides(self, "actuator_power")
 
     def weight(self, params: Params) -> Array:
         """Total weight, ``g`` times the sum of the point masses (model force units)."""
@@ -168,6 +245,18 @@ class Walker:
     def time_scale(self, params: Params) -> Array:
         """Characteristic time ``sqrt(l/g)``, used to size time limits."""
         return jnp.sqrt(1.0 / params.get("g", 1.0))
+
+    # ---------------------------------------------------------------- drawing
+    def skeleton(self, q: Array, params: Params, ctx: Array) -> Array:
+        """*drawing* ``(2, n_points, 2)``: a polyline per leg (leg 1 the stance leg)
+        from the hip to the foot, ``hip, [knee], ankle or foot, [heel, toe]``, in
+        the slope frame (:mod:`jaxwalk.figures`)."""
+        raise NotImplementedError(f"model '{self.name}' {missing(self, 'drawing')}")
+
+    def foot_points(self, q: Array, params: Params, ctx: Array) -> Array:
+        """*drawing* ``(2, n_foot, 2)``: the points of each foot that can touch the
+        ground, in the slope frame (the figures' foot clearance)."""
+        raise NotImplementedError(f"model '{self.name}' {missing(self, 'drawing')}")
 
     # ---------------------------------------------------------------- derived
     def split(self, y: Array) -> tuple[Array, Array]:
@@ -218,3 +307,57 @@ class Walker:
             + mechanics.gravity_potential(pts, masses, self.gravity(params), q)
             + self.spring_energy(q, params, phase, ctx)
         )
+
+
+# -------------------------------------------------------------------- capabilities
+
+
+def overrides(model: Walker, method: str) -> bool:
+    """Whether ``model``'s class defines ``method`` itself rather than taking :class:`Walker`'s default."""
+    return getattr(type(model), method) is not getattr(Walker, method)
+
+
+def _step_down(model: Walker) -> str | None:
+    return None if model.ground_next is not None else "has no step-down (no 'ground_next' in its context)"
+
+
+def _drawing(model: Walker) -> str | None:
+    absent = [m for m in ("skeleton", "foot_points") if not overrides(model, m)]
+    return f"cannot be drawn: it has no {' or '.join(f'{m}()' for m in absent)} method" if absent else None
+
+
+#: Each optional capability: the end of the one-line refusal when ``model`` lacks it, else ``None``.
+CAPABILITIES: dict[str, Callable[[Walker], str | None]] = {"step_down": _step_down, "drawing": _drawing}
+
+#: The capability each config key needs when it is switched on (its value
+#: truthy): ``[analysis]`` keys of a sweep, ``[simulate] drop``. (The figures of
+#: a simulation need the drawing capability: :func:`jaxwalk.simulate.check_drawable`.)
+NEEDS: dict[str, str] = {
+    "h_max": "step_down",
+    "gait_sensitivity": "step_down",
+    "mfpt": "step_down",
+    "drop": "step_down",
+}
+
+
+def missing(model: Walker, capability: str) -> str | None:
+    """Why ``model`` lacks ``capability`` (a key of :data:`CAPABILITIES`): the end of a
+    sentence that begins "model 'name' ", or ``None`` when it has it."""
+    return CAPABILITIES[capability](model)
+
+
+def check_supported(model: Walker, requested: Mapping[str, object], fail: Callable[[str], Exception], where: str = "[analysis]") -> None:
+    """Refuse, before anything is traced, what ``model`` cannot run.
+
+    Args:
+        requested: config key (a key of :data:`NEEDS`) -> its resolved value; a
+            falsy value (``None``, ``False``, ``0``, ``{}``) asks for nothing.
+            Keys that need no capability are ignored.
+        fail: ``fail(message)`` returns the exception to raise (the config's
+            :class:`jaxwalk.ConfigError`, its source in front).
+        where: the config section named in the message.
+    """
+    for key, value in requested.items():
+        reason = missing(model, NEEDS[key]) if value and key in NEEDS else None
+        if reason:
+            raise fail(f"{where} {key}: model '{model.name}' {reason}")

@@ -19,8 +19,9 @@ import json
 
 import numpy as np
 
-from jaxwalk.simulate import AFTER_EVENT, BEFORE_EVENT, as_params, check_drawable
-from jaxwalk.walker import Walker
+from jaxwalk.simulate.output import check_drawable
+from jaxwalk.simulate.recorder import AFTER_EVENT, BEFORE_EVENT
+from jaxwalk.walker import Walker, as_params
 
 #: Colours of physical legs A and B, and the colour maps used for shading.
 LEG_COLOURS = ("tab:blue", "tab:orange")
@@ -105,7 +106,7 @@ def walk_geometry(ds, model: Walker) -> WalkGeometry:
     """World coordinates of everything the figures draw (see :class:`WalkGeometry`)."""
     check_drawable(model)
     params = as_params(json.loads(ds.attrs["params"]))
-    gamma = float(params["gamma"])
+    gamma = float(model.slope(params))
     q = np.asarray(ds["q"].values)
     ctx = np.asarray(ds["ctx"].values)
     origin = np.asarray(ds["frame_origin"].values)
@@ -249,34 +250,13 @@ def stick_diagram(
         fig, ax = plt.subplots(figsize=(min(max(3.2 * aspect, 5.0), 12.0), 3.8), dpi=150)
     else:
         fig = ax.figure
-    cmaps = [matplotlib.colormaps[c] for c in LEG_CMAPS]
-    sizes = 8.0 + 40.0 * geo.masses / geo.masses.max()
-    for j in range(len(picks)):
-        shade = 0.35 + 0.6 * j / max(len(picks) - 1, 1)
-        for leg in range(2):
-            line = skeleton[j, leg]
-            ax.plot(line[:, 0], line[:, 1], color=cmaps[leg](shade), lw=2.0, solid_capstyle="round", zorder=2)
-        ax.scatter(points[j, :, 0], points[j, :, 1], s=sizes, color="k", zorder=3, lw=0)
+    _draw_snapshots(ax, geo, skeleton, points)
     handles = []
     if spread == 0:
         rows = geo.step == step
         ax.plot(geo.hip[rows, 0], geo.hip[rows, 1], ":", color="0.4", lw=1.0, zorder=1)
         handles.append(Line2D([], [], color="0.4", ls=":", label="hip path"))
-    # The ground: the level of this step's stance foot, and where the next
-    # touchdown's level differs (a step-down), that level dashed.
-    rows = np.nonzero(geo.step == step)[0]
-    levels = [geo.origin[rows[0], 1]]
-    after = np.nonzero(geo.step == step + 1)[0]
-    if len(after) and abs(geo.origin[after[0], 1] - levels[0]) > 1e-12:
-        levels.append(geo.origin[after[0], 1])
-    world_x = np.array([lo[0] - geo.leg_length, hi[0] + geo.leg_length])
-    for k, level in enumerate(levels):
-        x = (world_x - level * np.sin(geo.gamma)) / np.cos(geo.gamma)  # slope x of those world x on this level
-        line = to_world(np.stack([x, np.full(2, level)], axis=-1), geo.gamma)
-        ax.plot(line[:, 0], line[:, 1], color=GROUND_COLOUR, lw=1.5 if k == 0 else 1.0, ls="-" if k == 0 else "--", zorder=0)
-    if len(levels) > 1:
-        drop = (levels[0] - levels[1]) / np.cos(geo.gamma)
-        handles.append(Line2D([], [], color=GROUND_COLOUR, ls="--", lw=1.0, label=f"ground after the step-down ({drop:.3g})"))
+    handles += _draw_step_ground(ax, geo, step, (lo[0] - geo.leg_length, hi[0] + geo.leg_length))
     ax.set_xlim(lo[0] - pad, hi[0] + pad)
     ax.set_ylim(lo[1] - 2 * pad, hi[1] + pad)
     ax.set_aspect("equal")
@@ -301,6 +281,43 @@ def stick_diagram(
     return fig
 
 
+def _draw_snapshots(ax, geo: WalkGeometry, skeleton: np.ndarray, points: np.ndarray) -> None:
+    """Each snapshot's legs, shaded light (early) to dark (late), and its point masses."""
+    import matplotlib
+
+    cmaps = [matplotlib.colormaps[c] for c in LEG_CMAPS]
+    sizes = 8.0 + 40.0 * geo.masses / geo.masses.max()
+    n = len(skeleton)
+    for j in range(n):
+        shade = 0.35 + 0.6 * j / max(n - 1, 1)
+        for leg in range(2):
+            line = skeleton[j, leg]
+            ax.plot(line[:, 0], line[:, 1], color=cmaps[leg](shade), lw=2.0, solid_capstyle="round", zorder=2)
+        ax.scatter(points[j, :, 0], points[j, :, 1], s=sizes, color="k", zorder=3, lw=0)
+
+
+def _draw_step_ground(ax, geo: WalkGeometry, step: int, world_x) -> list:
+    """The ground under step ``step``: the level of its stance foot, and where the
+    next touchdown's level differs (a step-down), that level dashed. Returns the
+    legend handles it adds."""
+    from matplotlib.lines import Line2D
+
+    rows = np.nonzero(geo.step == step)[0]
+    levels = [geo.origin[rows[0], 1]]
+    after = np.nonzero(geo.step == step + 1)[0]
+    if len(after) and abs(geo.origin[after[0], 1] - levels[0]) > 1e-12:
+        levels.append(geo.origin[after[0], 1])
+    world_x = np.array(world_x)
+    for k, level in enumerate(levels):
+        x = (world_x - level * np.sin(geo.gamma)) / np.cos(geo.gamma)  # slope x of those world x on this level
+        line = to_world(np.stack([x, np.full(2, level)], axis=-1), geo.gamma)
+        ax.plot(line[:, 0], line[:, 1], color=GROUND_COLOUR, lw=1.5 if k == 0 else 1.0, ls="-" if k == 0 else "--", zorder=0)
+    if len(levels) == 1:
+        return []
+    drop = (levels[0] - levels[1]) / np.cos(geo.gamma)
+    return [Line2D([], [], color=GROUND_COLOUR, ls="--", lw=1.0, label=f"ground after the step-down ({drop:.3g})")]
+
+
 def time_series(ds, model: Walker, *, geometry: WalkGeometry | None = None):
     """Thigh (or leg) and shank angles from the vertical, the hip's path, foot
     clearance and mechanical energy (the seed paper's Fig. 4 a-d, plus energy).
@@ -312,10 +329,9 @@ def time_series(ds, model: Walker, *, geometry: WalkGeometry | None = None):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from jaxwalk.status import describe
+
     geo = geometry or walk_geometry(ds, model)
-    t = geo.time
-    tu = _unit_label(geo.time_unit)
-    lu = _unit_label(geo.length_unit)
     panels = ["thigh", "shank", "hip", "clearance", "energy"] if geo.has_knee else ["thigh", "hip", "clearance", "energy"]
     ncols = 2
     nrows = (len(panels) + 1) // 2
@@ -326,58 +342,12 @@ def time_series(ds, model: Walker, *, geometry: WalkGeometry | None = None):
             _summary(ax, ds)
         else:
             ax.remove()
-
-    def events(ax):
-        for te in geo.step_ends:
-            ax.axvline(te, color="0.6", ls="--", lw=0.7, zorder=0)
-        for te in geo.impacts:
-            ax.axvline(te, color="0.75", ls=":", lw=0.7, zorder=0)
-
     for ax, name in zip(axes, panels):
-        if name in ("thigh", "shank"):
-            seg = 0 if name == "thigh" else 1
-            what = "thigh" if (name == "thigh" and geo.has_knee) else ("shank" if name == "shank" else "leg")
-            for leg in range(2):
-                ax.plot(t, geo.angles[:, leg, seg], color=LEG_COLOURS[leg], label=LEG_NAMES[leg])
-            events(ax)
-            ax.axhline(0.0, color="0.8", lw=0.6, zorder=0)
-            ax.set_ylabel(f"{what} angle (rad)")
-            ax.set_title(f"{what} angles from the vertical (+: distal end forward)", fontsize=9)
-            ax.legend(fontsize=8, frameon=False)
-        elif name == "hip":
-            ax.plot(geo.hip[:, 0], geo.hip[:, 1], color="k", lw=1.2)
-            ends = np.isin(t, geo.step_ends) & (geo.kind == AFTER_EVENT)
-            ax.plot(geo.hip[ends, 0], geo.hip[ends, 1], "o", color="0.4", ms=3, label="heel-strikes")
-            ax.set_xlabel(f"x_h (forward){lu}")
-            ax.set_ylabel(f"y_h (up){lu}")
-            ax.set_title("hip path (world frame)", fontsize=9)
-            ax.legend(fontsize=8, frameon=False)
-            continue
-        elif name == "clearance":
-            for leg in range(2):
-                ax.plot(t, geo.clearance[:, leg], color=LEG_COLOURS[leg], label=LEG_NAMES[leg])
-            events(ax)
-            ax.axhline(0.0, color="0.6", lw=0.6, zorder=0)
-            swing = np.max(geo.clearance, axis=1)
-            ax.set_ylim(min(-0.02 * geo.leg_length, float(np.nanmin(geo.clearance)) * 1.1), float(np.nanmax(swing)) * 1.15 + 1e-3 * geo.leg_length)
-            ax.set_ylabel(f"height{lu}")
-            ax.set_title("foot clearance: lowest foot point above the stance ground (vertical)", fontsize=9)
-            ax.legend(fontsize=8, frameon=False)
-        elif name == "energy":
-            energy = np.asarray(ds["energy"].values)
-            work = np.asarray(ds["work"].values)
-            eu = _unit_label(ds["energy"].attrs.get("units", "1"))
-            ax.plot(t, energy - energy[0], color="k", label="mechanical energy E - E(0)")
-            if np.any(work != 0):
-                ax.plot(t, work, color="tab:green", label="actuator work")
-            events(ax)
-            ax.set_ylabel(f"energy{eu}")
-            ax.set_title("energy (drops at impacts)", fontsize=9)
-            ax.legend(fontsize=8, frameon=False)
-        ax.set_xlabel(f"time{tu}")
+        _PANELS[name](ax, geo, ds, name)
+        if name != "hip":
+            ax.set_xlabel(f"time{_unit_label(geo.time_unit)}")
     status = int(ds["status"].values)
-    from jaxwalk.status import describe
-
+    lu = _unit_label(geo.length_unit)
     fig.suptitle(
         f"{model.name} walker: {int(ds['steps_completed'].values)} steps"
         + (f", then {describe(status)}" if status != 0 else "")
@@ -386,6 +356,72 @@ def time_series(ds, model: Walker, *, geometry: WalkGeometry | None = None):
     )
     fig.tight_layout()
     return fig
+
+
+def _mark_events(ax, geo: WalkGeometry) -> None:
+    """Dashed lines at heel-strikes (ends of steps), dotted at other impacts."""
+    for te in geo.step_ends:
+        ax.axvline(te, color="0.6", ls="--", lw=0.7, zorder=0)
+    for te in geo.impacts:
+        ax.axvline(te, color="0.75", ls=":", lw=0.7, zorder=0)
+
+
+def _angle_panel(ax, geo: WalkGeometry, ds, name: str) -> None:
+    seg = 0 if name == "thigh" else 1
+    what = "thigh" if (name == "thigh" and geo.has_knee) else ("shank" if name == "shank" else "leg")
+    for leg in range(2):
+        ax.plot(geo.time, geo.angles[:, leg, seg], color=LEG_COLOURS[leg], label=LEG_NAMES[leg])
+    _mark_events(ax, geo)
+    ax.axhline(0.0, color="0.8", lw=0.6, zorder=0)
+    ax.set_ylabel(f"{what} angle (rad)")
+    ax.set_title(f"{what} angles from the vertical (+: distal end forward)", fontsize=9)
+    ax.legend(fontsize=8, frameon=False)
+
+
+def _hip_panel(ax, geo: WalkGeometry, ds, name: str) -> None:
+    lu = _unit_label(geo.length_unit)
+    ax.plot(geo.hip[:, 0], geo.hip[:, 1], color="k", lw=1.2)
+    ends = np.isin(geo.time, geo.step_ends) & (geo.kind == AFTER_EVENT)
+    ax.plot(geo.hip[ends, 0], geo.hip[ends, 1], "o", color="0.4", ms=3, label="heel-strikes")
+    ax.set_xlabel(f"x_h (forward){lu}")
+    ax.set_ylabel(f"y_h (up){lu}")
+    ax.set_title("hip path (world frame)", fontsize=9)
+    ax.legend(fontsize=8, frameon=False)
+
+
+def _clearance_panel(ax, geo: WalkGeometry, ds, name: str) -> None:
+    for leg in range(2):
+        ax.plot(geo.time, geo.clearance[:, leg], color=LEG_COLOURS[leg], label=LEG_NAMES[leg])
+    _mark_events(ax, geo)
+    ax.axhline(0.0, color="0.6", lw=0.6, zorder=0)
+    swing = np.max(geo.clearance, axis=1)
+    ax.set_ylim(min(-0.02 * geo.leg_length, float(np.nanmin(geo.clearance)) * 1.1), float(np.nanmax(swing)) * 1.15 + 1e-3 * geo.leg_length)
+    ax.set_ylabel(f"height{_unit_label(geo.length_unit)}")
+    ax.set_title("foot clearance: lowest foot point above the stance ground (vertical)", fontsize=9)
+    ax.legend(fontsize=8, frameon=False)
+
+
+def _energy_panel(ax, geo: WalkGeometry, ds, name: str) -> None:
+    energy = np.asarray(ds["energy"].values)
+    work = np.asarray(ds["work"].values)
+    eu = _unit_label(ds["energy"].attrs.get("units", "1"))
+    ax.plot(geo.time, energy - energy[0], color="k", label="mechanical energy E - E(0)")
+    if np.any(work != 0):
+        ax.plot(geo.time, work, color="tab:green", label="actuator work")
+    _mark_events(ax, geo)
+    ax.set_ylabel(f"energy{eu}")
+    ax.set_title("energy (drops at impacts)", fontsize=9)
+    ax.legend(fontsize=8, frameon=False)
+
+
+#: The panels of :func:`time_series`: ``draw(ax, geometry, dataset, name)``.
+_PANELS = {
+    "thigh": _angle_panel,
+    "shank": _angle_panel,
+    "hip": _hip_panel,
+    "clearance": _clearance_panel,
+    "energy": _energy_panel,
+}
 
 
 def _summary(ax, ds) -> None:

@@ -1,16 +1,17 @@
-"""The model registry: one shared instance per model, looked up by name.
+"""The model registry: every model by its name.
 
-Jitted functions close over a model and use its Python identity as their cache
-key (see :class:`jaxwalk.walker.Walker`), so everything should get its model
-from here rather than constructing a new one.
+A new model is one module here (a :class:`jaxwalk.walker.Walker` subclass)
+and one entry in :data:`MODELS`; ``tests/test_walker_contract.py`` then
+checks it against the walker contract. Models compare by value, so a second
+instance of a model class shares every compiled program with the registry's.
 """
 
 from __future__ import annotations
 
-from jaxwalk.models.compass import CompassWalker
-from jaxwalk.models.flatfoot import FlatFootWalker
-from jaxwalk.models.kneed import KneedStopWalker, KneedWalker
-from jaxwalk.models.simplest import SimplestWalker
+from jaxwalk.models.compass import CompassWalker as CompassWalker
+from jaxwalk.models.flatfoot import FlatFootWalker as FlatFootWalker
+from jaxwalk.models.kneed import KneedStopWalker as KneedStopWalker, KneedWalker as KneedWalker
+from jaxwalk.models.simplest import SimplestWalker as SimplestWalker
 from jaxwalk.walker import Walker
 
 MODELS: dict[str, Walker] = {

@@ -27,12 +27,14 @@ import jax.numpy as jnp
 
 from jaxwalk.parameters import ParamSpec, nonnegative, positive
 from jaxwalk.status import Status
-from jaxwalk.walker import Transition, Walker
+from jaxwalk.walker import Transition, Walker, distal
 
 # Guard indices.
 HEEL_STRIKE, FALL, STALL, SWING_RANGE, MIDSTANCE = range(5)
 # Phases.
 EARLY, LATE = 0, 1
+# Context entries: the stance foot's x anchor, the ground height at the next touchdown.
+X_STANCE, GROUND_NEXT = range(2)
 
 #: Hip height (fraction of leg length, normal to the slope) below which the walker has fallen.
 FALL_HEIGHT = 0.5
@@ -59,6 +61,7 @@ class CompassWalker(Walker):
     phases = ("single_support_early", "single_support_late")
     guards = ("heel_strike", "fall", "stall", "swing_range", "midstance")
     context = ("x_stance", "ground_next")
+    ground_next = GROUND_NEXT
     section_names = ("alpha_1", "alpha_1_dot", "alpha_2_dot")
     n_constraints = 4  # stance foot (x, y), swing foot (x, y)
     units = {"length": "m", "time": "s"}
@@ -78,7 +81,7 @@ class CompassWalker(Walker):
 
     def gravity(self, params):
         *_, g = self.mass_model(params)
-        gamma = params["gamma"]
+        gamma = self.slope(params)
         return g * jnp.stack([jnp.sin(gamma), -jnp.cos(gamma)])
 
     # ------------------------------------------------------------ kinematics
@@ -86,12 +89,12 @@ class CompassWalker(Walker):
         """``(2, 2)`` positions of foot 1 (stance) and foot 2 (swing)."""
         l = self.leg_length(params)
         hip = q[:2]
-        return jnp.stack([hip + l * jnp.stack([jnp.sin(a), -jnp.cos(a)]) for a in (q[2], q[3])])
+        return jnp.stack([hip + l * distal(a) for a in (q[2], q[3])])
 
     def points(self, q, params):
         _, _, _, b, _ = self.mass_model(params)
         hip = q[:2]
-        legs = [hip + b * jnp.stack([jnp.sin(a), -jnp.cos(a)]) for a in (q[2], q[3])]
+        legs = [hip + b * distal(a) for a in (q[2], q[3])]
         return jnp.stack([hip, *legs])
 
     def masses(self, params):
@@ -103,7 +106,7 @@ class CompassWalker(Walker):
         return jnp.stack(
             # The swing row's x value is never used: it only enters impacts, which
             # need its Jacobian, not its value.
-            [feet[0, 0] - ctx[0], feet[0, 1], feet[1, 0], feet[1, 1] - ctx[1]]
+            [feet[0, 0] - ctx[X_STANCE], feet[0, 1], feet[1, 0], feet[1, 1] - ctx[GROUND_NEXT]]
         )
 
     def constraint_mask(self, phase, params):
@@ -121,7 +124,7 @@ class CompassWalker(Walker):
         # through the ground is ignored, as in both papers.
         midstance = jnp.where(early, a1, 1.0)
         # After it the swing foot is ahead of the hip and can only come down.
-        heel = jnp.where(early, 1.0, feet[1, 1] - ctx[1])
+        heel = jnp.where(early, 1.0, feet[1, 1] - ctx[GROUND_NEXT])
         fall = q[1] / l - FALL_HEIGHT
         # Walking forward, the stance leg always rotates forward (alpha_1 decreasing).
         stall = -qd[2]
@@ -135,7 +138,7 @@ class CompassWalker(Walker):
         y_plus, _ = self.apply_impact(y, params, ctx, jnp.array([0.0, 0.0, 1.0, 1.0]))
         q_p, qd_p = self.split(y_plus)
         shift = feet[1, 0]
-        swapped_q = jnp.stack([q_p[0] - shift, q_p[1] - ctx[1], q_p[3], q_p[2]])
+        swapped_q = jnp.stack([q_p[0] - shift, q_p[1] - ctx[GROUND_NEXT], q_p[3], q_p[2]])
         swapped_qd = jnp.stack([qd_p[0], qd_p[1], qd_p[3], qd_p[2]])
         y_next = jnp.concatenate([swapped_q, swapped_qd])
         ahead = feet[1, 0] - feet[0, 0] > MIN_STEP_FRACTION * self.leg_length(params)

@@ -67,7 +67,7 @@ import jax.numpy as jnp
 
 from jaxwalk.parameters import ParamSpec, nonnegative, positive
 from jaxwalk.status import Status
-from jaxwalk.walker import Transition, Walker
+from jaxwalk.walker import Transition, Walker, distal
 
 # Phase indices.
 UNLOCKED, LOCKED = range(2)
@@ -75,6 +75,8 @@ UNLOCKED, LOCKED = range(2)
 HEEL_STRIKE, KNEE_STRIKE, FALL, STALL, KNEE_BUCKLE, KNEE_LATE, SWING_RANGE = range(7)
 # Constraint rows.
 STANCE_X, STANCE_Y, STANCE_KNEE, SWING_KNEE, SWING_X, SWING_Y = range(6)
+# Context entries: the stance foot's anchor, the ground height at the next touchdown.
+X_STANCE, Y_STANCE, GROUND_NEXT = range(3)
 
 #: Hip height (fraction of leg length, normal to the slope) below which the walker has fallen.
 FALL_HEIGHT = 0.5
@@ -87,11 +89,6 @@ _MASK_UNLOCKED = (1.0, 1.0, 1.0, 0.0, 0.0, 0.0)
 _MASK_LOCKED = (1.0, 1.0, 1.0, 1.0, 0.0, 0.0)
 #: Heel-strike impact: both knees locked, the new foot pinned, the trailing foot free.
 _MASK_HEEL_STRIKE = (0.0, 0.0, 1.0, 1.0, 1.0, 1.0)
-
-
-def _down(angle):
-    """Unit vector from a segment's proximal to its distal end, ``(sin a, -cos a)``."""
-    return jnp.stack([jnp.sin(angle), -jnp.cos(angle)])
 
 
 class KneedWalker(Walker):
@@ -115,6 +112,7 @@ class KneedWalker(Walker):
     phases = ("unlocked_swing", "locked_swing")
     guards = ("heel_strike", "knee_strike", "fall", "stall", "knee_buckle", "knee_late", "swing_range")
     context = ("x_stance", "y_stance", "ground_next")
+    ground_next = GROUND_NEXT
     section_names = ("alpha_1", "alpha_1_dot", "alpha_2_dot")
     # stance foot (x, y), stance knee lock, swing knee lock, swing foot (x, y)
     n_constraints = 6
@@ -137,13 +135,13 @@ class KneedWalker(Walker):
         """``(2, 2)`` positions of knee 1 (stance) and knee 2 (swing)."""
         l_t, _, _ = self.lengths(params)
         hip = q[:2]
-        return jnp.stack([hip + l_t * _down(q[2]), hip + l_t * _down(q[4])])
+        return jnp.stack([hip + l_t * distal(q[2]), hip + l_t * distal(q[4])])
 
     def feet(self, q, params):
         """``(2, 2)`` positions of foot 1 (stance) and foot 2 (swing)."""
         _, l_s, _ = self.lengths(params)
         knees = self.knees(q, params)
-        return jnp.stack([knees[0] + l_s * _down(q[3]), knees[1] + l_s * _down(q[5])])
+        return jnp.stack([knees[0] + l_s * distal(q[3]), knees[1] + l_s * distal(q[5])])
 
     def points(self, q, params):
         """Hip; thigh 1, shank 1; thigh 2, shank 2 (``(5, 2)``)."""
@@ -153,10 +151,10 @@ class KneedWalker(Walker):
         return jnp.stack(
             [
                 hip,
-                hip + b2 * _down(q[2]),
-                knees[0] + b1 * _down(q[3]),
-                hip + b2 * _down(q[4]),
-                knees[1] + b1 * _down(q[5]),
+                hip + b2 * distal(q[2]),
+                knees[0] + b1 * distal(q[3]),
+                hip + b2 * distal(q[4]),
+                knees[1] + b1 * distal(q[5]),
             ]
         )
 
@@ -168,14 +166,14 @@ class KneedWalker(Walker):
         feet = self.feet(q, params)
         return jnp.stack(
             [
-                feet[0, 0] - ctx[0],
-                feet[0, 1] - ctx[1],
+                feet[0, 0] - ctx[X_STANCE],
+                feet[0, 1] - ctx[Y_STANCE],
                 q[2] - q[3],
                 q[4] - q[5],
                 # The swing x row's value is never used: it only enters the
                 # heel-strike impact, which needs its Jacobian.
                 feet[1, 0],
-                feet[1, 1] - ctx[2],
+                feet[1, 1] - ctx[GROUND_NEXT],
             ]
         )
 
@@ -212,7 +210,7 @@ class KneedWalker(Walker):
         unlocked = phase == UNLOCKED
         # Open only after the stance leg passed the normal: there the swing foot
         # is at height >= drop >= 0 whatever its knee, so opening is never a crossing.
-        heel = jnp.where(stance < 0.0, feet[1, 1] - ctx[2], 1.0)
+        heel = jnp.where(stance < 0.0, feet[1, 1] - ctx[GROUND_NEXT], 1.0)
         # Open only while the knee extends: it opens at the largest flexion (> 0).
         # Just after heel-strike flexion and its rate are both zero: closed.
         knee = jnp.where(unlocked & (flexion_rate < 0.0), flexion, 1.0)
@@ -237,7 +235,7 @@ class KneedWalker(Walker):
         y_heel, impulses = self.apply_impact(y, params, ctx, jnp.array(_MASK_HEEL_STRIKE))
         q_p, qd_p = self.split(y_heel)
         shift = feet[1, 0]
-        swapped_q = jnp.stack([q_p[0] - shift, q_p[1] - ctx[2], q_p[4], q_p[5], q_p[2], q_p[3]])
+        swapped_q = jnp.stack([q_p[0] - shift, q_p[1] - ctx[GROUND_NEXT], q_p[4], q_p[5], q_p[2], q_p[3]])
         swapped_qd = jnp.stack([qd_p[0], qd_p[1], qd_p[4], qd_p[5], qd_p[2], qd_p[3]])
         y_swapped = jnp.concatenate([swapped_q, swapped_qd])
         ctx_swapped = jnp.zeros_like(ctx)

@@ -39,10 +39,10 @@ from jaxwalk.simulate.recorder import (
 from jaxwalk.simulate.run import run_simulation as run_simulation
 from jaxwalk.simulate.start import (
     GaitNotFound as GaitNotFound,
-    as_params as as_params,
     find_start_gait as find_start_gait,
     initial_state as initial_state,
 )
+from jaxwalk.walker import as_params as as_params
 
 # jaxwalk.simulate(config, out=None, ...) runs it from a notebook (jaxwalk.api.simulate).
 from jaxwalk._callable import make_callable as _make_callable  # noqa: E402

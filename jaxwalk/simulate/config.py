@@ -33,7 +33,7 @@ from jaxwalk.sweep.config import (
     parse_toml,
     read_config_text,
 )
-from jaxwalk.walker import Walker
+from jaxwalk.walker import NEEDS, Walker, missing
 
 SIMULATE_KEYS = ("steps", "drop", "dt", "v0")
 TOP_LEVEL_KEYS = ("name", "model", "params", "simulate")
@@ -111,6 +111,31 @@ def parse_simulate_config(
     def fail(message: str) -> ConfigError:
         return ConfigError(f"{source}: {message}")
 
+    _check_layout(data, fail)
+    name = _name(data, fail)
+    model_name, model = model_of(data, fail, example="kneed")
+    specs = model.param_specs
+    params = _params(data.get("params", {}), specs, model_name, fail)
+    fixed = {p: float(spec.default) for p, spec in specs.items()}
+    fixed.update(params)
+
+    table = data.get("simulate", {})
+    for key in table:
+        if key not in SIMULATE_KEYS:
+            raise fail(f"{_WHERE}: unknown key '{key}'{_did_you_mean(key, SIMULATE_KEYS)} (allowed: {', '.join(SIMULATE_KEYS)})")
+    return SimulateConfig(
+        name=name, model=model_name, params=params, fixed=fixed, steps=_steps(table, steps, fail),
+        drop=_drop(table, drop, model, fail), dt=_dt(table, model, fixed, fail), v0=_v0(table, model, fail),
+        source=source, text=text,
+    )
+
+
+#: The table the command reads, as messages name it.
+_WHERE = "[simulate]"
+
+
+def _check_layout(data, fail) -> None:
+    """A TOML table of the known top-level keys, ``[params]`` and ``[simulate]`` tables."""
     if not isinstance(data, Mapping):
         raise fail("a config must be a TOML table")
     for key in data:
@@ -123,71 +148,71 @@ def parse_simulate_config(
         if key in data and not isinstance(data[key], Mapping):
             raise fail(f"'{key}' must be a table ([{key}]), got {_kind(data[key])}")
 
-    name = _name(data, fail)
-    model_name, model = model_of(data, fail, example="kneed")
-    specs = model.param_specs
-    params = _params(data.get("params", {}), specs, model_name, fail)
-    fixed = {p: float(spec.default) for p, spec in specs.items()}
-    fixed.update(params)
 
-    table = data.get("simulate", {})
-    where = "[simulate]"
-    for key in table:
-        if key not in SIMULATE_KEYS:
-            raise fail(f"{where}: unknown key '{key}'{_did_you_mean(key, SIMULATE_KEYS)} (allowed: {', '.join(SIMULATE_KEYS)})")
+def _steps(table, override: int | None, fail) -> int:
+    """The step count: ``--steps`` over ``[simulate] steps``; the file's value is
+    checked even where the command line overrides it."""
 
-    def check_steps(n, what):
+    def check(n, what):
         if isinstance(n, bool) or not isinstance(n, int) or n < 1:
             raise fail(f"{what} must be a positive integer, got {n!r}")
         if n > MAX_STEPS:
             raise fail(f"{what} = {n} is more than the limit of {MAX_STEPS} steps")
         return n
 
-    def check_drop(h, what):
-        if isinstance(h, bool) or not isinstance(h, (int, float)) or not math.isfinite(h) or h < 0:
-            raise fail(f"{what} must be a number >= 0 (a vertical step-down at the first touchdown, in {model.units['length']}), got {h!r}")
-        if h > 0 and "ground_next" not in model.context:
-            raise fail(f"{what}: model '{model_name}' has no step-down (no 'ground_next' in its context)")
-        return h
-
-    # The file's values are checked even where the command line overrides them.
-    n = check_steps(table["steps"], f"{where} steps") if "steps" in table else None
-    if steps is not None:
-        n = check_steps(steps, "--steps")
+    n = check(table["steps"], f"{_WHERE} steps") if "steps" in table else None
+    if override is not None:
+        n = check(override, "--steps")
     if n is None:
         raise fail("no step count: give --steps N or [simulate] steps = N")
-    h = check_drop(table.get("drop", 0.0), f"{where} drop")
-    if drop is not None:
-        h = check_drop(drop, "--drop")
+    return int(n)
 
+
+def _drop(table, override: float | None, model: Walker, fail) -> float:
+    """The step-down at the first touchdown: ``--drop`` over ``[simulate] drop`` (both checked)."""
+
+    def check(h, what):
+        if isinstance(h, bool) or not isinstance(h, (int, float)) or not math.isfinite(h) or h < 0:
+            raise fail(f"{what} must be a number >= 0 (a vertical step-down at the first touchdown, in {model.units['length']}), got {h!r}")
+        reason = missing(model, NEEDS["drop"]) if h > 0 else None
+        if reason:
+            raise fail(f"{what}: model '{model.name}' {reason}")
+        return h
+
+    h = check(table.get("drop", 0.0), f"{_WHERE} drop")
+    if override is not None:
+        h = check(override, "--drop")
+    return float(h)
+
+
+def _dt(table, model: Walker, fixed: Mapping[str, float], fail) -> float:
+    """The sampling interval: within :data:`DT_RANGE` time scales; default
+    :data:`DEFAULT_DT_SCALES` of them, to one significant digit."""
     scale = float(model.time_scale({k: np.float64(v) for k, v in fixed.items()}))
     lo, hi = DT_RANGE[0] * scale, DT_RANGE[1] * scale
-    if "dt" in table:
-        dt = table["dt"]
-        if isinstance(dt, bool) or not isinstance(dt, (int, float)) or not math.isfinite(dt) or not (lo <= dt <= hi):
-            raise fail(
-                f"{where} dt (output sampling interval) must be a number from {lo:.3g} to {hi:.3g} "
-                f"{_time_unit(model)} ({DT_RANGE[0]:g} to {DT_RANGE[1]:g} times the time scale sqrt(L/g) = {scale:.4g}), got {dt!r}"
-            )
-        dt = float(dt)
-    else:
-        dt = float(f"{DEFAULT_DT_SCALES * scale:.1g}")
-
-    v0 = None
-    if "v0" in table:
-        v0 = table["v0"]
-        names = model.section_names
-        ok = isinstance(v0, list) and len(v0) == len(names) and all(
-            not isinstance(x, bool) and isinstance(x, (int, float)) and math.isfinite(x) for x in v0
+    if "dt" not in table:
+        return float(f"{DEFAULT_DT_SCALES * scale:.1g}")
+    dt = table["dt"]
+    if isinstance(dt, bool) or not isinstance(dt, (int, float)) or not math.isfinite(dt) or not (lo <= dt <= hi):
+        raise fail(
+            f"{_WHERE} dt (output sampling interval) must be a number from {lo:.3g} to {hi:.3g} "
+            f"{_time_unit(model)} ({DT_RANGE[0]:g} to {DT_RANGE[1]:g} times the time scale sqrt(L/g) = {scale:.4g}), got {dt!r}"
         )
-        if not ok:
-            raise fail(f"{where} v0 must be an array of {len(names)} finite numbers ({', '.join(names)}), got {v0!r}")
-        v0 = tuple(float(x) for x in v0)
+    return float(dt)
 
-    return SimulateConfig(
-        name=name, model=model_name, params=params, fixed=fixed, steps=int(n), drop=float(h), dt=dt, v0=v0,
-        source=source, text=text,
+
+def _v0(table, model: Walker, fail) -> tuple[float, ...] | None:
+    """``[simulate] v0``: as many finite numbers as the model has section coordinates, or ``None``."""
+    if "v0" not in table:
+        return None
+    v0 = table["v0"]
+    names = model.section_names
+    ok = isinstance(v0, list) and len(v0) == len(names) and all(
+        not isinstance(x, bool) and isinstance(x, (int, float)) and math.isfinite(x) for x in v0
     )
+    if not ok:
+        raise fail(f"{_WHERE} v0 must be an array of {len(names)} finite numbers ({', '.join(names)}), got {v0!r}")
+    return tuple(float(x) for x in v0)
 
 
 def _time_unit(model: Walker) -> str:

@@ -56,19 +56,21 @@ def build_trajectory_dataset(
     """
     import xarray as xr
 
-    from jaxwalk.sweep.dataset import output_units, package_versions, units_note
+    from jaxwalk.sweep.dataset import output_units
 
     units = output_units(model)
-    q_units, qd_units = coordinate_units(model)
-    n_q = model.n_q
     created = created or _dt.datetime.now(_dt.timezone.utc)
-    created_s = created.isoformat(timespec="seconds")
-    length_u, time_u = units["length"], units["time"]
-    force_u = "1" if length_u == "1" else "N or N m"
-    energy_u = "1" if length_u == "1" else "J"
-    power_u = "1" if length_u == "1" else "W"
+    return xr.Dataset(
+        _variables(model, traj, units["length"], units["time"]),
+        coords=_coordinates(model, traj, units["time"]),
+        attrs=_attributes(config, model, units, gait=gait, command=command, created=created, solver=solver),
+    )
 
-    coords = {
+
+def _coordinates(model: Walker, traj: Trajectory, time_u: str) -> dict[str, tuple]:
+    """The dataset's coordinates: time, the model's names, step numbers."""
+    q_units, qd_units = coordinate_units(model)
+    return {
         "time": ("time", traj.time, {
             "long_name": "time since the start of the walk (repeated at each event: the states just before and just after it)",
             "units": time_u,
@@ -84,8 +86,17 @@ def build_trajectory_dataset(
         "step_number": ("step_number", np.arange(len(traj.step_status)), {"long_name": "step index, from 0"}),
         "section": ("section", np.array(model.section_names, dtype=object), {"long_name": "section coordinates at the start of a step"}),
     }
+
+
+def _variables(model: Walker, traj: Trajectory, length_u: str, time_u: str) -> dict[str, tuple]:
+    """The dataset's variables: per sample, per step, and the walk's outcome."""
+    q_units, qd_units = coordinate_units(model)
+    n_q = model.n_q
+    force_u = "1" if length_u == "1" else "N or N m"
+    energy_u = "1" if length_u == "1" else "J"
+    power_u = "1" if length_u == "1" else "W"
     guard_flags = {"flag_values": list(range(-1, len(model.guards))), "flag_meanings": " ".join(("none", *model.guards))}
-    data_vars = {
+    return {
         "phase": ("time", traj.phase, {"long_name": "phase of the step", **_flags(model.phases)}),
         "step": ("time", traj.step, {
             "long_name": "index of the step the sample belongs to (the state after the last completed step's heel-strike has index steps_completed)",
@@ -132,20 +143,29 @@ def build_trajectory_dataset(
         "status": ((), np.int8(traj.status), {"long_name": "outcome of the walk: 0 if every step was completed, else the failed step's status", **flag_attributes()}),
         "steps_completed": ((), np.int32(traj.steps_completed), {"long_name": "steps completed", "units": "1"}),
     }
-    start: dict[str, Any]
+
+
+def _start(config: SimulateConfig, gait) -> dict[str, Any]:
+    """Attributes saying where the walk started: given ``v0``, or the periodic gait."""
     if config.v0 is not None:
-        start = {"start": "v0 (given section coordinates)", "start_section": json.dumps(list(config.v0))}
-    else:
-        start = {
-            "start": "periodic gait (find_gait from the model's initial guess)",
-            "start_section": json.dumps([float(x) for x in np.asarray(gait.v)]),
-            "gait_lambda_max": float(gait.lambda_max),
-            "gait_period": float(gait.period),
-            "gait_step_length": float(gait.step_length),
-            "gait_newton_iterations": int(gait.iterations),
-        }
+        return {"start": "v0 (given section coordinates)", "start_section": json.dumps(list(config.v0))}
+    return {
+        "start": "periodic gait (find_gait from the model's initial guess)",
+        "start_section": json.dumps([float(x) for x in np.asarray(gait.v)]),
+        "gait_lambda_max": float(gait.lambda_max),
+        "gait_period": float(gait.period),
+        "gait_step_length": float(gait.step_length),
+        "gait_newton_iterations": int(gait.iterations),
+    }
+
+
+def _attributes(config: SimulateConfig, model: Walker, units, *, gait, command, created, solver) -> dict[str, Any]:
+    """The dataset's attributes: the model, the config, the start, provenance."""
+    from jaxwalk.sweep.dataset import package_versions, units_note
+
+    created_s = created.isoformat(timespec="seconds")
     versions = package_versions()
-    attrs = {
+    return {
         "title": f"jaxwalk simulation '{config.name}' of the {model.name} model",
         "Conventions": "CF-1.10",
         "name": config.name,
@@ -159,7 +179,7 @@ def build_trajectory_dataset(
         "drop": config.drop,
         "drop_comment": "vertical step-down of the ground at the first touchdown (model length units); later steps on the new level",
         "dt": config.dt,
-        **start,
+        **_start(config, gait),
         "status_meanings": flag_attributes()["flag_descriptions"],
         "solver_options": json.dumps(dataclasses.asdict(solver) if solver is not None else {}, default=str),
         "config": config.to_json(),
@@ -170,4 +190,3 @@ def build_trajectory_dataset(
         "history": f"{created_s}: {command or 'jaxwalk.simulate.run_simulation'}",
         **{f"{name}_version": v for name, v in versions.items()},
     }
-    return xr.Dataset(data_vars, coords=coords, attrs=attrs)

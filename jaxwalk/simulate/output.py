@@ -8,7 +8,7 @@ import tempfile
 from pathlib import Path
 
 from jaxwalk.sweep.config import ConfigError
-from jaxwalk.walker import Walker
+from jaxwalk.walker import Walker, missing
 
 
 def output_paths(out_dir: str | os.PathLike, name: str, *, plot: bool = True, gif: bool = True) -> dict[str, Path]:
@@ -36,13 +36,10 @@ def check_outputs(out_dir, name: str, *, plot: bool = True, gif: bool = True, ov
 
 
 def check_drawable(model: Walker) -> None:
-    """Raise :class:`ConfigError` if ``model`` lacks what the figures need."""
-    missing = [m for m in ("skeleton", "foot_points") if not callable(getattr(model, m, None))]
-    if missing:
-        raise ConfigError(
-            f"model '{model.name}' cannot be drawn: it has no {' or '.join(f'{m}()' for m in missing)} method "
-            "(pass --no-plot --no-gif for the dataset alone)"
-        )
+    """Raise :class:`ConfigError` if ``model`` lacks what the figures need (the drawing capability)."""
+    reason = missing(model, "drawing")
+    if reason:
+        raise ConfigError(f"model '{model.name}' {reason} (pass --no-plot --no-gif for the dataset alone)")
 
 
 def write_atomically(target: Path, write) -> None:

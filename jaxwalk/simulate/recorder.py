@@ -75,12 +75,11 @@ def _observe(model: Walker, params, y, phase, ctx):
     _, lam = model.dynamics(y, params, phase, ctx)
     lam = jnp.where(model.constraint_mask(phase, params) > 0, lam, jnp.nan)
     energy = model.energy(y, params, phase, ctx)
-    power_fn = getattr(model, "actuator_power", None)
-    if power_fn is None:
-        power = jnp.zeros((), y.dtype)
-    else:
+    if model.actuated:
         q, qd = model.split(y)
-        power = jnp.asarray(power_fn(q, qd, params, phase, ctx), y.dtype)
+        power = jnp.asarray(model.actuator_power(q, qd, params, phase, ctx), y.dtype)
+    else:
+        power = jnp.zeros((), y.dtype)
     return lam, energy, power
 
 
@@ -134,15 +133,49 @@ def record_walk(model: Walker, params, y0, phase0, ctx0, n_steps: int, dt: float
 
     from jaxwalk.step import SolverOptions
 
-    opts = opts or SolverOptions()
-    advance, sample, observe, section = _compiled(model, opts)
+    programs = _compiled(model, opts or SolverOptions())
+    _, _, observe, section = programs
     masses = np.asarray(model.masses(params))
-    weight = masses.sum() * np.asarray(model.gravity(params))  # total weight vector in the slope frame
-    has_power = getattr(model, "actuator_power", None) is not None
+    samples = _Samples(weight=masses.sum() * np.asarray(model.gravity(params)))  # total weight in the slope frame
+    st = _Walk(y=jnp.asarray(y0), phase=jnp.asarray(phase0, jnp.int32), ctx=jnp.asarray(ctx0), origin=np.zeros(2))
+    # (A batch of two, the shape every event uses: one compilation.)
+    lam, energy, power = observe(params, jnp.stack([st.y, st.y]), jnp.stack([st.phase, st.phase]), jnp.stack([st.ctx, st.ctx]))
+    samples.add(0.0, 0, int(st.phase), REGULAR, -1, st.y[None], st.ctx, st.origin, lam[:1], energy[:1], power[:1], st.work)
 
-    rows: dict[str, list] = {k: [] for k in ("time", "step", "phase", "kind", "guard", "y", "ctx", "origin", "lam", "energy", "power", "work")}
+    steps: dict[str, list] = {k: [] for k in ("status", "start", "duration", "length", "section_start", "section_end")}
+    status = int(Status.OK)
+    for k in range(n_steps):
+        steps["section_start"].append(np.asarray(section(params, st.y, st.ctx)))
+        steps["start"].append(st.t_walk)
+        code, duration, length = _record_step(programs, model.actuated, params, st, k, dt, samples)
+        steps["status"].append(code)
+        steps["duration"].append(duration)
+        steps["length"].append(length)
+        st.t_walk += duration
+        if progress is not None:
+            progress()
+        if code == int(Status.OK):
+            steps["section_end"].append(np.asarray(section(params, st.y, st.ctx)))
+        else:
+            steps["section_end"].append(np.full(len(model.section_names), np.nan))
+            status = code
+            break
+    return _trajectory(samples.arrays(), steps, status, len(model.section_names))
 
-    def add(time, step, phase, kind, guard, ys, ctx, origin, lam, energy, power, work):
+
+#: Per-sample columns of a recording, in :class:`_Samples`.
+_COLUMNS = ("time", "step", "phase", "kind", "guard", "y", "ctx", "origin", "lam", "energy", "power", "work")
+
+
+class _Samples:
+    """The recorded samples, appended a block at a time (numpy columns, :data:`_COLUMNS`)."""
+
+    def __init__(self, weight: np.ndarray):
+        self.weight = weight  # (2,) total weight vector in the slope frame
+        self.rows: dict[str, list] = {k: [] for k in _COLUMNS}
+
+    def add(self, time, step, phase, kind, guard, ys, ctx, origin, lam, energy, power, work) -> None:
+        rows = self.rows
         n = len(ys)
         if n == 0:  # a phase with no grid point inside (shorter than dt, or an event at its start)
             return
@@ -156,88 +189,97 @@ def record_walk(model: Walker, params, y0, phase0, ctx0, n_steps: int, dt: float
         rows["origin"].append(np.tile(origin, (n, 1)))
         rows["lam"].append(np.asarray(lam).reshape(n, -1))
         # Gravity potential in the first step's frame: -weight . (p + origin).
-        rows["energy"].append(np.asarray(energy).reshape(n) - weight @ origin)
+        rows["energy"].append(np.asarray(energy).reshape(n) - self.weight @ origin)
         rows["power"].append(np.asarray(power).reshape(n))
         rows["work"].append(np.asarray(work, np.float64).reshape(n))
 
-    y = jnp.asarray(y0)
-    phase = jnp.asarray(phase0, jnp.int32)
-    ctx = jnp.asarray(ctx0)
-    origin = np.zeros(2)
-    work = 0.0
-    t_walk = 0.0  # time at the start of the current step
-    # (A batch of two, the shape every event uses: one compilation.)
-    lam, energy, power = observe(params, jnp.stack([y, y]), jnp.stack([phase, phase]), jnp.stack([ctx, ctx]))
-    add(0.0, 0, int(phase), REGULAR, -1, y[None], ctx, origin, lam[:1], energy[:1], power[:1], work)
+    def arrays(self) -> dict[str, np.ndarray]:
+        return {k: np.concatenate(v) for k, v in self.rows.items()}
 
-    step_status, step_start, step_duration, step_length, sec_start, sec_end = [], [], [], [], [], []
-    status = int(Status.OK)
-    for k in range(n_steps):
-        sec_start.append(np.asarray(section(params, y, ctx)))
-        step_start.append(t_walk)
-        t_local, n_events, length = 0.0, 0, 0.0
-        step_code = int(Status.IN_PROGRESS)
-        while step_code == int(Status.IN_PROGRESS):
-            out, interp = advance(params, y, phase, ctx, jnp.asarray(t_local), jnp.asarray(n_events, jnp.int32))
-            n_events += 1
-            t_event = float(out.t_event)
-            # Regular samples strictly inside the phase, on the walk's grid k dt.
-            a, b = t_walk + t_local, t_walk + t_event
-            ks = np.arange(math.floor(a / dt), math.ceil(b / dt) + 1)
-            grid = ks * dt
-            grid = grid[(grid > a) & (grid < b)]
-            local = grid - t_walk
-            nodes = np.concatenate([[t_local], local, [t_event]])
-            ts = nodes if not has_power else np.concatenate([nodes, 0.5 * (nodes[:-1] + nodes[1:])])
-            pad = np.full(_padded(len(ts)), t_event)
-            pad[: len(ts)] = ts
-            ys, lam, energy, power = sample(interp, jnp.asarray(pad), params, phase, ctx)
-            power = np.asarray(power)
-            if has_power:
-                m = len(nodes)
-                p_nodes, p_mid = power[:m], power[m : 2 * m - 1]
-                pieces = np.diff(nodes) / 6.0 * (p_nodes[:-1] + 4.0 * p_mid + p_nodes[1:])
-                work_nodes = work + np.concatenate([[0.0], np.cumsum(pieces)])
-            else:
-                work_nodes = np.full(len(nodes), work)
-            inner = slice(1, len(nodes) - 1)
-            ph = int(phase)
-            add(grid, k, ph, REGULAR, -1, ys[inner], ctx, origin, lam[inner], energy[inner], power[inner], work_nodes[inner])
-            work = float(work_nodes[-1])
 
-            # The event: the state before it, and after it if the walk goes on.
-            step_code = int(out.status)
-            guard = int(out.guard) if bool(out.event_happened) else -1
-            both_y = jnp.stack([out.y_event, out.y_next])
-            lam2, energy2, power2 = observe(
-                params, both_y, jnp.stack([phase, out.phase_next]), jnp.stack([ctx, out.ctx_next])
-            )
-            add(b, k, ph, BEFORE_EVENT, guard, both_y[:1], ctx, origin, lam2[:1], energy2[:1], power2[:1], work)
-            length += float(out.shift)
-            goes_on = step_code in (int(Status.IN_PROGRESS), int(Status.OK))
-            if goes_on:
-                next_step = k + 1 if bool(out.step_done) else k
-                if bool(out.step_done):
-                    # Same hip, new frame: the frame moved by the hip's change of coordinates.
-                    origin = origin + np.asarray(out.y_event[:2] - out.y_next[:2])
-                add(b, next_step, int(out.phase_next), AFTER_EVENT, guard, both_y[1:], out.ctx_next, origin,
-                    lam2[1:], energy2[1:], power2[1:], work)
-            y, phase, ctx = out.y_next, out.phase_next, out.ctx_next
-            t_local = t_event
-        step_status.append(step_code)
-        step_duration.append(t_local)
-        step_length.append(length)
-        t_walk += t_local
-        if progress is not None:
-            progress()
-        if step_code == int(Status.OK):
-            sec_end.append(np.asarray(section(params, y, ctx)))
-        else:
-            sec_end.append(np.full(len(model.section_names), np.nan))
-            status = step_code
-            break
+@dataclasses.dataclass
+class _Walk:
+    """Where the walk is: the full state in its step's frame, that frame's origin
+    (in the first step's frame), the actuator work so far, the step's start time."""
 
-    cat = {k: np.concatenate(v) for k, v in rows.items()}
+    y: object
+    phase: object
+    ctx: object
+    origin: np.ndarray
+    work: float = 0.0
+    t_walk: float = 0.0
+
+
+def _record_step(programs, actuated: bool, params, st: _Walk, k: int, dt: float, samples: _Samples) -> tuple[int, float, float]:
+    """Step ``k`` from ``st`` (advanced in place), phase by phase: its status, duration and length."""
+    import jax.numpy as jnp
+
+    advance, sample, observe, _ = programs
+    t_local, n_events, length = 0.0, 0, 0.0
+    step_code = int(Status.IN_PROGRESS)
+    while step_code == int(Status.IN_PROGRESS):
+        out, interp = advance(params, st.y, st.phase, st.ctx, jnp.asarray(t_local), jnp.asarray(n_events, jnp.int32))
+        n_events += 1
+        t_event = float(out.t_event)
+        _sample_phase(sample, interp, actuated, params, st, k, (t_local, t_event), dt, samples)
+        step_code = _record_event(observe, params, out, st, k, samples)
+        length += float(out.shift)
+        t_local = t_event
+    return step_code, t_local, length
+
+
+def _sample_phase(sample, interp, actuated: bool, params, st: _Walk, k: int, span, dt: float, samples: _Samples) -> None:
+    """The regular samples strictly inside a phase (on the walk's grid ``k dt``)
+    and, for an actuated model, the work by Simpson's rule between them."""
+    import jax.numpy as jnp
+
+    t_local, t_event = span
+    a, b = st.t_walk + t_local, st.t_walk + t_event
+    ks = np.arange(math.floor(a / dt), math.ceil(b / dt) + 1)
+    grid = ks * dt
+    grid = grid[(grid > a) & (grid < b)]
+    local = grid - st.t_walk
+    nodes = np.concatenate([[t_local], local, [t_event]])
+    ts = nodes if not actuated else np.concatenate([nodes, 0.5 * (nodes[:-1] + nodes[1:])])
+    pad = np.full(_padded(len(ts)), t_event)
+    pad[: len(ts)] = ts
+    ys, lam, energy, power = sample(interp, jnp.asarray(pad), params, st.phase, st.ctx)
+    power = np.asarray(power)
+    if actuated:
+        m = len(nodes)
+        p_nodes, p_mid = power[:m], power[m : 2 * m - 1]
+        pieces = np.diff(nodes) / 6.0 * (p_nodes[:-1] + 4.0 * p_mid + p_nodes[1:])
+        work_nodes = st.work + np.concatenate([[0.0], np.cumsum(pieces)])
+    else:
+        work_nodes = np.full(len(nodes), st.work)
+    inner = slice(1, len(nodes) - 1)
+    samples.add(grid, k, int(st.phase), REGULAR, -1, ys[inner], st.ctx, st.origin, lam[inner], energy[inner], power[inner], work_nodes[inner])
+    st.work = float(work_nodes[-1])
+
+
+def _record_event(observe, params, out, st: _Walk, k: int, samples: _Samples) -> int:
+    """The states just before an event and, if the walk goes on, just after its
+    reset (at the same time); moves ``st`` past it. Returns the step's status."""
+    import jax.numpy as jnp
+
+    b = st.t_walk + float(out.t_event)
+    step_code = int(out.status)
+    guard = int(out.guard) if bool(out.event_happened) else -1
+    both_y = jnp.stack([out.y_event, out.y_next])
+    lam2, energy2, power2 = observe(params, both_y, jnp.stack([st.phase, out.phase_next]), jnp.stack([st.ctx, out.ctx_next]))
+    samples.add(b, k, int(st.phase), BEFORE_EVENT, guard, both_y[:1], st.ctx, st.origin, lam2[:1], energy2[:1], power2[:1], st.work)
+    if step_code in (int(Status.IN_PROGRESS), int(Status.OK)):
+        next_step = k + 1 if bool(out.step_done) else k
+        if bool(out.step_done):
+            # Same hip, new frame: the frame moved by the hip's change of coordinates.
+            st.origin = st.origin + np.asarray(out.y_event[:2] - out.y_next[:2])
+        samples.add(b, next_step, int(out.phase_next), AFTER_EVENT, guard, both_y[1:], out.ctx_next, st.origin,
+                    lam2[1:], energy2[1:], power2[1:], st.work)
+    st.y, st.phase, st.ctx = out.y_next, out.phase_next, out.ctx_next
+    return step_code
+
+
+def _trajectory(cat: dict[str, np.ndarray], steps: dict[str, list], status: int, n_v: int) -> Trajectory:
     return Trajectory(
         time=cat["time"],
         step=cat["step"],
@@ -251,12 +293,12 @@ def record_walk(model: Walker, params, y0, phase0, ctx0, n_steps: int, dt: float
         energy=cat["energy"],
         actuator_power=cat["power"],
         work=cat["work"],
-        step_status=np.asarray(step_status, np.int8),
-        step_start_time=np.asarray(step_start),
-        step_duration=np.asarray(step_duration),
-        step_length=np.asarray(step_length),
-        section_start=np.asarray(sec_start).reshape(-1, len(model.section_names)),
-        section_end=np.asarray(sec_end).reshape(-1, len(model.section_names)),
+        step_status=np.asarray(steps["status"], np.int8),
+        step_start_time=np.asarray(steps["start"]),
+        step_duration=np.asarray(steps["duration"]),
+        step_length=np.asarray(steps["length"]),
+        section_start=np.asarray(steps["section_start"]).reshape(-1, n_v),
+        section_end=np.asarray(steps["section_end"]).reshape(-1, n_v),
         status=status,
-        steps_completed=int(sum(1 for s in step_status if s == int(Status.OK))),
+        steps_completed=int(sum(1 for s in steps["status"] if s == int(Status.OK))),
     )

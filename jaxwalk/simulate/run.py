@@ -14,8 +14,9 @@ from jaxwalk.simulate.config import SimulateConfig
 from jaxwalk.simulate.dataset import build_trajectory_dataset
 from jaxwalk.simulate.output import check_drawable, check_outputs, write_atomically
 from jaxwalk.simulate.recorder import Trajectory, record_walk
-from jaxwalk.simulate.start import GaitNotFound, as_params, find_start_gait, initial_state
+from jaxwalk.simulate.start import GaitNotFound, find_start_gait, initial_state
 from jaxwalk.status import STATUS_MEANINGS, Status, describe
+from jaxwalk.walker import as_params
 
 
 def run_simulation(

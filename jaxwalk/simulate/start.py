@@ -10,7 +10,6 @@ new level).
 from __future__ import annotations
 
 import functools
-from typing import Mapping
 
 import numpy as np
 
@@ -20,14 +19,6 @@ from jaxwalk.walker import Walker
 
 class GaitNotFound(ConfigError):
     """No periodic gait to start from (a one-line message naming the status)."""
-
-
-
-def as_params(fixed: Mapping[str, float]) -> dict:
-    """Parameters as a pytree of float64 scalars."""
-    import jax.numpy as jnp
-
-    return {k: jnp.asarray(v, jnp.float64) for k, v in fixed.items()}
 
 
 @functools.lru_cache(maxsize=None)
@@ -58,8 +49,6 @@ def initial_state(model: Walker, params, v, drop: float = 0.0):
     import jax.numpy as jnp
 
     y, phase, ctx = model.section_to_state(jnp.asarray(v, jnp.float64), params)
-    if "ground_next" in model.context:
-        ctx = ctx.at[model.ctx_index("ground_next")].set(-drop * jnp.cos(params["gamma"]))
-    elif drop:
-        raise ValueError(f"model '{model.name}' has no step-down (no 'ground_next' in its context)")
+    if model.ground_next is not None or drop:
+        ctx = model.with_ground_drop(ctx, params, drop)  # ValueError for a drop the model cannot take
     return y, phase, ctx

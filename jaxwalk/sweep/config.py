@@ -34,6 +34,7 @@ import numpy as np
 from jaxwalk.models import get_model
 from jaxwalk.parameters import ParamSpec
 from jaxwalk.sweep import attractors
+from jaxwalk.walker import check_supported
 
 #: Largest grid accepted by default (points); callers may pass their own ``max_points``.
 DEFAULT_MAX_POINTS = 10_000_000
@@ -243,6 +244,7 @@ def parse_config(
     }
     stability, continuation, seed_axis, solver, h_max = _analysis(data.get("analysis", {}), list(axis_specs), fail)
     global_stability = _global_stability(data.get("analysis", {}), fail)
+    check_supported(model, {"h_max": h_max, **global_stability}, fail)  # the capabilities they need (jaxwalk.walker)
     _check_size(axis_specs, len(model.section_names), max_points, fail, h_max=h_max is not None)
     axes = tuple(_axis(axis, spec) for axis, spec in axis_specs.items())
 

@@ -1,5 +1,3 @@
 """The flat-foot walker: see :mod:`jaxwalk.models.flatfoot.model` and ``docs/model.md``."""
 
-from jaxwalk.models.flatfoot.model import FlatFootWalker
-
-__all__ = ["FlatFootWalker"]
+from jaxwalk.models.flatfoot.model import FlatFootWalker as FlatFootWalker

@@ -26,6 +26,8 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
+from jaxwalk.walker import distal as distal  # the engine's convention, (sin a, -cos a)
+
 Array = jax.Array
 
 # Indices into q.
@@ -43,11 +45,6 @@ POINT_NAMES = (
     "thigh_1_a", "thigh_1_b", "shank_1_a", "shank_1_b", "foot_1",
     "thigh_2_a", "thigh_2_b", "shank_2_a", "shank_2_b", "foot_2",
 )  # fmt: skip
-
-
-def distal(angle: Array) -> Array:
-    """Unit vector from a segment's top to its bottom, ``(sin a, -cos a)``."""
-    return jnp.stack([jnp.sin(angle), -jnp.cos(angle)])
 
 
 def foot_direction(phi: Array) -> Array:

@@ -56,8 +56,8 @@ class FlatFootWalker(Walker):
         positive("mu", 1e6, "1", "friction coefficient at every ground contact"),
         # A contact impulse pulls (or slides) when it is more tensile (or further
         # outside the friction cone) than this fraction of the impact's largest
-        # normal impulse: the check scales with the impacts that occur (the old
-        # fixed 0.01 M sqrt(gL) exceeded every heel-strike impulse).
+        # normal impulse: the check scales with the impacts that occur (a fixed
+        # 0.01 M sqrt(gL) would exceed every heel-strike impulse).
         nonnegative("impulse_tol", 0.01, "1", "allowed tensile (or sliding) contact impulse, fraction of the impact's largest normal impulse"),
         ParamSpec("stance_latch", 1.0, "1", "1: locked knees are latched (may pull); 0: on their extension stop only (KNEE_BUCKLED when it would pull)", lower=0.0, upper=1.0),
     )
@@ -65,6 +65,7 @@ class FlatFootWalker(Walker):
     phases = ph.PHASE_NAMES
     guards = events.GUARD_NAMES
     context = ph.CONTEXT
+    ground_next = ph.C["ground_next"]
     section_names = ("psi", "psi_dot")
     n_constraints = ph.N_CONSTRAINTS
     # One configuration (or continuation line) at a time per device: where the
