@@ -34,7 +34,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxwalk import mechanics
+from jaxwalk import mechanics, program_cache
 from jaxwalk.gait import Gait, NewtonOptions, value_and_jacfwd
 from jaxwalk.status import Status
 from jaxwalk.step import SolverOptions, step_map
@@ -78,6 +78,7 @@ class AttractorOptions:
 MAX_HALVINGS = 8
 
 
+@program_cache.serializable
 class Attractor(NamedTuple):
     """The attractor near a period-1 gait (batch shape in front under vmap).
 
@@ -389,7 +390,6 @@ def grid_attractors(model: Walker, params: dict, gaits: dict, options) -> dict:
 
 @functools.lru_cache(maxsize=None)
 def _attractor_program(model: Walker, settings: AttractorOptions, solver: SolverOptions, newton: NewtonOptions):
-    from jaxwalk import program_cache
     from jaxwalk.batching import in_sub_batches as _in_sub_batches
 
     def one(p):

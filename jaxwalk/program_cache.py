@@ -41,9 +41,16 @@ from jaxwalk.continuation import LineCarry
 from jaxwalk.gait import Gait
 from jaxwalk.stepdown import StepDownResult
 
+def serializable(output_type: type) -> type:
+    """Let a grid program's NamedTuple output be saved in its exported form (a
+    class decorator for modules this one cannot import without a circle)."""
+    export.register_namedtuple_serialization(output_type, serialized_name=f"{output_type.__module__}.{output_type.__qualname__}")
+    return output_type
+
+
 #: Output types of the grid programs, so that their exported form can be saved.
 for _type in (Gait, LineCarry, StepDownResult):
-    export.register_namedtuple_serialization(_type, serialized_name=f"{_type.__module__}.{_type.__qualname__}")
+    serializable(_type)
 
 _LIBRARIES = ("jax", "jaxlib", "diffrax", "equinox", "optimistix", "lineax", "numpy")
 _PACKAGE = Path(__file__).resolve().parent
