@@ -326,19 +326,6 @@ def find_attractor(model: Walker, params, gait: Gait, options: AttractorOptions 
     return Attractor(status, period, points, multipliers, lam, jnp.where(period > 0, rate, jnp.nan), walked)
 
 
-
-#: Result arrays of a sweep's attractor search (``[analysis] attractors``), by trailing shape:
-#: ``()``, ``("eigen",)`` (n_v multipliers) or ``("cycle", "section")`` (max_period points).
-RESULT_KEYS = {
-    "attractor_status": (),
-    "attractor_period": (),
-    "attractor_lambda_max": (),
-    "attractor_rate": (),
-    "attractor_multipliers": ("eigen",),
-    "attractor_points": ("cycle", "section"),
-}
-
-
 def grid_attractors(model: Walker, params: dict, gaits: dict, options) -> dict:
     """The attractor at every point of a grid block whose gaits are known.
 
@@ -353,7 +340,7 @@ def grid_attractors(model: Walker, params: dict, gaits: dict, options) -> dict:
         options: a :class:`jaxwalk.grid.AnalysisOptions` with ``attractors`` set.
 
     Returns:
-        The :data:`RESULT_KEYS` arrays, of shape ``S`` plus their trailing shape.
+        The outputs :mod:`jaxwalk.analyses.attractors` declares, of shape ``S`` plus their trailing shape.
     """
     from jaxwalk.batching import run_chunks as _run_chunks
 

@@ -39,6 +39,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxwalk.attractor import AttractorOptions, find_cycle, minimal_period, spectrum
+from jaxwalk.batching import in_sub_batches, run_chunks, sub_batch_size
 from jaxwalk.gait import NewtonOptions
 from jaxwalk.status import Status
 from jaxwalk.step import SolverOptions
@@ -120,13 +121,21 @@ def _complex_pair_on_circle(mu: np.ndarray) -> bool:
     return abs(mu[i[nearest]].imag) > 1e-6 and abs(mu[i[nearest]] - np.conj(mu[j[nearest]])) < 1e-6
 
 
+#: Re-solves per program call: every call has this shape whatever the batch
+#: (padding skipped: jaxwalk.batching), so a model compiles its re-solve once.
+CALL_ROWS = 64
+
+
 @functools.lru_cache(maxsize=None)
 def _solver(model: Walker, k: int, solver: SolverOptions, newton: NewtonOptions):
-    """Batched Newton re-solve of the period-k cycle: ``(params, v0) -> (status, v, multipliers)``."""
+    """Batched Newton re-solve of the period-k cycle: rows of parameters and
+    ``__v0__`` -> ``(status, v, multipliers)``."""
 
     k_ = jnp.asarray(k, jnp.int32)
 
-    def one(p, v0):
+    def one(row):
+        p = dict(row)
+        v0 = p.pop("__v0__")
         _, jac, points, status = find_cycle(model, p, v0, k_, k, solver, newton)
         eig, _ = spectrum(jnp.where(jnp.isfinite(jac).all(), jac, jnp.eye(v0.shape[0], dtype=v0.dtype)))
         # A fixed point of f^k that closes after fewer steps is a shorter cycle, not this branch's.
@@ -134,16 +143,14 @@ def _solver(model: Walker, k: int, solver: SolverOptions, newton: NewtonOptions)
         status = jnp.where((status == Status.OK) & shorter, jnp.int8(Status.CYCLE_NOT_FOUND), status)
         return status, points[0], eig
 
-    return jax.jit(jax.vmap(one))
+    return jax.jit(lambda rows: in_sub_batches(one, rows, sub_batch_size(model, solver)))
 
 
 def _evaluate(model, k, solver, newton, params: Mapping[str, np.ndarray], v0: np.ndarray):
-    """Re-solve at a batch of parameter sets, padded to a power of two (few compiled shapes)."""
-    n = v0.shape[0]
-    size = 1 << max(0, (n - 1).bit_length())
-    pad = lambda x: np.concatenate([x, np.repeat(x[-1:], size - n, axis=0)]) if size > n else x
-    status, v, eig = _solver(model, k, solver, newton)({k_: pad(np.asarray(x)) for k_, x in params.items()}, pad(v0))
-    return np.asarray(status)[:n], np.asarray(v)[:n], np.asarray(eig)[:n]
+    """Re-solve at a batch of parameter sets, :data:`CALL_ROWS` per call (one compiled shape)."""
+    rows = {**{k_: np.asarray(x, np.float64) for k_, x in params.items()}, "__v0__": np.asarray(v0, np.float64)}
+    status, v, eig = run_chunks(_solver(model, k, solver, newton), rows, CALL_ROWS, None)
+    return np.asarray(status), np.asarray(v), np.asarray(eig)
 
 
 def follow(model: Walker, lines: Mapping[str, np.ndarray], v0: np.ndarray, start: int, period: int = 1,

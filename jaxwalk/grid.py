@@ -29,7 +29,7 @@ from jaxwalk.gait import Gait, NewtonOptions, find_gait
 from jaxwalk.lines import run_lines
 from jaxwalk.parameters import parameter_grid as parameter_grid
 from jaxwalk.step import SolverOptions
-from jaxwalk.stepdown import StepDownOptions, h_max
+from jaxwalk.stepdown import StepDownOptions
 from jaxwalk.walker import Walker
 
 
@@ -50,6 +50,8 @@ class AnalysisOptions:
             ``None`` skips it.
         global_stability: the gait sensitivity norm and the MFPT
             (:class:`jaxwalk.global_stability.options.GlobalOptions`); ``None`` skips them.
+        more: ``(name, options)`` of the other analyses to run (:mod:`jaxwalk.analyses`
+            plug-ins without a field here), in any order.
     """
 
     solver: SolverOptions = SolverOptions()
@@ -58,6 +60,7 @@ class AnalysisOptions:
     step_down: StepDownOptions | None = None
     attractors: AttractorOptions | None = None
     global_stability: object | None = None
+    more: tuple[tuple[str, object], ...] = ()
 
 
 @functools.lru_cache(maxsize=None)
@@ -72,18 +75,6 @@ def _independent_program(model: Walker, solver: SolverOptions, newton: NewtonOpt
 
     program = jax.jit(lambda p: _in_sub_batches(one, dict(p), sub_batch_size(model, solver)))
     program_cache.register(program, "independent", model, solver, newton)
-    return program
-
-
-@functools.lru_cache(maxsize=None)
-def _step_down_program(model: Walker, solver: SolverOptions, step_down: StepDownOptions):
-    def one(p):
-        v = p.pop("__v_star__")
-        return h_max(model, p, v, step_down, solver)
-
-    # Every drop of every step in lockstep across a sub-batch: sub_batch_size().
-    program = jax.jit(lambda rows: _in_sub_batches(one, dict(rows), sub_batch_size(model, solver)))
-    program_cache.register(program, "step_down", model, solver, step_down)
     return program
 
 
@@ -211,8 +202,8 @@ def analyse_chunk(
         ``fixed_point`` (``S + (n_v,)``), ``jacobian`` (``S + (n_v, n_v)``),
         ``period``, ``step_length``, ``speed``, ``work`` (actuator work per
         step), ``cost_of_transport``, ``newton_iterations``; and the outputs of
-        the analyses ``options`` asks for (:func:`_beyond_the_gait`: step-down,
-        attractors, global stability; docs/sweeps.md lists them).
+        the analyses ``options`` asks for (:func:`_beyond_the_gait`; their
+        declarations are :mod:`jaxwalk.analyses`).
     """
     params = parameter_grid(model, fixed, grid)
     axes = list(grid)
@@ -256,26 +247,15 @@ def analyse_chunk(
 
 
 def _beyond_the_gait(model: Walker, params, gaits: Gait, out, options: AnalysisOptions) -> dict[str, np.ndarray]:
-    """The analyses that start from a block's gaits (step-down, attractors, global
-    stability), each only when ``options`` asks for it; arrays of the grid's shape."""
-    shape = out["status"].shape
-    extra = {}
-    if options.step_down is not None:
-        rows = {k: v.reshape(-1) for k, v in params.items()}
-        rows["__v_star__"] = gaits.v.reshape(-1, gaits.v.shape[-1])
-        program = _step_down_program(model, options.solver, options.step_down)
-        drops = _run_chunks(program, rows, options.chunk_size, None)
-        extra["h_max"] = drops.h_max.reshape(shape)
-        no_gait = out["status"] != 0  # no h_max without a gait: carry the gait's status
-        extra["step_down_status"] = np.where(no_gait, out["status"], drops.first_failure.astype(np.int8).reshape(shape))
-        extra["h_failed"] = drops.failed_at.reshape(shape)
-    if options.attractors is not None:
-        from jaxwalk.attractor import grid_attractors
+    """The outputs of the analyses that start from a block's gaits (:mod:`jaxwalk.analyses`),
+    each only when ``options`` asks for it, in the registry's order (a later one
+    sees the earlier ones' outputs); arrays of the grid's shape."""
+    from jaxwalk.analyses import Block, plugins
 
-        extra.update(grid_attractors(model, params, {**out, **extra}, options))
-    if options.global_stability is not None:
-        from jaxwalk.global_stability.sweep import grid_outputs
-
-        extra.update(grid_outputs(model, params, gaits, out["status"], options.solver, options.global_stability))
-    return extra
-
+    results = dict(out)
+    run = lambda program, rows: _run_chunks(program, rows, options.chunk_size, None)  # noqa: E731
+    for analysis in plugins():
+        if analysis.options_of(options) is not None:
+            block = Block(model, params, gaits, results, options, sub_batch_size(model, options.solver), run)
+            results.update(analysis.compute(block))
+    return {k: v for k, v in results.items() if k not in out}

@@ -55,9 +55,6 @@ from jaxwalk.walker import Walker
 
 Array = jax.Array
 
-#: Quantities :func:`gait_metrics` differentiates, in this order.
-METRICS = ("lambda_max", "speed", "step_length", "period", "cost_of_transport")
-
 #: ``I - J`` with a condition number above this, or a dominant eigenvalue with
 #: ``|u^H w| / (|u| |w|)`` below ``EIGEN_CONDITION_MIN``, has no usable derivative.
 FOLD_CONDITION_MAX = 1e12

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
+from jaxwalk.analyses import gait
 from jaxwalk.status import Status, flag_attributes
 from jaxwalk.stepdown import StepDownOptions
 from jaxwalk.sweep import ConfigError, check_results, loads_config, run_sweep
@@ -70,18 +71,9 @@ def test_progress_bar_counts_points(tmp_path, fake_analysis, capsys):
 
 
 def fake_results(shape=(4,), n_v=3, **changes):
-    out = {
-        "status": np.zeros(shape, np.int8),
-        "lambda_max": np.full(shape, 0.5),
-        "eigenvalues": np.full(shape + (n_v,), 0.5 + 0.1j),
-        "fixed_point": np.ones(shape + (n_v,)),
-        "period": np.ones(shape),
-        "step_length": np.ones(shape),
-        "speed": np.ones(shape),
-        "work": np.zeros(shape),
-        "cost_of_transport": np.zeros(shape),
-        "newton_iterations": np.full(shape, 3),
-    }
+    """Every gait output with the shape and dtype :mod:`jaxwalk.analyses.gait` declares: a gait everywhere."""
+    value = {"int8": 0, "int32": 3, "float64": 0.5, "complex128": 0.5 + 0.1j}
+    out = {o.name: np.full(o.shape(shape, {"section": n_v, "eigen": n_v}), value[o.dtype], o.dtype) for o in gait.OUTPUTS}
     out.update(changes)
     return out
 

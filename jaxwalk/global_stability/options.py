@@ -1,7 +1,7 @@
 """``[analysis] gait_sensitivity`` and ``[analysis] mfpt``: checked config, resolved options.
 
-Kept apart from :mod:`jaxwalk.sweep.config` (which calls :func:`parse`) so the
-sweep's config module only learns two key names.
+Read by the sweep plug-in :mod:`jaxwalk.analyses.global_stability` (which calls
+:func:`parse` and :func:`global_options`).
 """
 
 from __future__ import annotations

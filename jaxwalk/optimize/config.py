@@ -8,7 +8,7 @@ optimise over which parameters, from which starts (see ``docs/optimize.md``)::
     [params]                       # held fixed (the model's defaults otherwise)
     k = 0.03
     [optimize]
-    objective = "lambda_max"       # speed, step_length, period, cost_of_transport; "-speed" maximises
+    objective = "lambda_max"       # or any of engine.QUANTITIES (speed, ...); "-speed" maximises
     bounds = { r = [0.3, 0.6] }    # the optimised parameters and their boxes
     iterations = 30
     learning_rate = 0.02           # fraction of each box per step, cosine-decayed

@@ -42,26 +42,30 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxwalk import analyses
+from jaxwalk.analyses import gait
 from jaxwalk.gait import NewtonOptions
 from jaxwalk.sensitivity import gait_sensitivity
 from jaxwalk.status import Status
 from jaxwalk.step import SolverOptions
 from jaxwalk.walker import Walker
 
-#: Quantities an objective or a held value may name.
-QUANTITIES = ("lambda_max", "speed", "step_length", "period", "cost_of_transport", "gait_sensitivity_norm")
+#: The analyses beside the gait that declare a differentiable output, by output.
+_OWNERS = {o.name: a for a in analyses.plugins() for o in a.outputs(a.fullest()) if o.differentiable}
 #: Quantities computed only when the problem names them (:func:`extra_program`).
-EXTRA_QUANTITIES = ("gait_sensitivity_norm",)
+EXTRA_QUANTITIES = tuple(_OWNERS)
+#: Quantities an objective or a held value may name: every output declared
+#: ``differentiable`` (the gait's from :func:`jaxwalk.sensitivity.gait_sensitivity`).
+QUANTITIES = tuple(o.name for o in gait.OUTPUTS if o.differentiable) + EXTRA_QUANTITIES
 
 
 @functools.lru_cache(maxsize=None)
 def extra_program(model: Walker, names: tuple[str, ...], solver: SolverOptions, newton: NewtonOptions):
     """``jit(vmap)``: ``(params batch, v0) -> {quantity: (value (B,), gradient (B, n_p))}`` for
-    :data:`EXTRA_QUANTITIES` (the gait sensitivity norm: :mod:`jaxwalk.global_stability.sensitivity_norm`)."""
-    from jaxwalk.global_stability.sensitivity_norm import norm_and_gradient
-
-    one = lambda p, v0: {"gait_sensitivity_norm": norm_and_gradient(model, p, v0, names, solver, newton)}
-    return jax.jit(jax.vmap(one))
+    :data:`EXTRA_QUANTITIES`, each by its analysis (:meth:`jaxwalk.analyses.base.Analysis.gradient`;
+    the gait sensitivity norm: :mod:`jaxwalk.global_stability.sensitivity_norm`)."""
+    fns = {q: a.gradient(q, model, names, solver, newton) for q, a in _OWNERS.items()}
+    return jax.jit(jax.vmap(lambda p, v0: {q: f(p, v0) for q, f in fns.items()}))
 
 
 @functools.lru_cache(maxsize=None)
@@ -171,6 +175,60 @@ def _quantity(sens, name: str, extra=None):
     return np.asarray(getattr(sens.metrics, name)), np.asarray(getattr(sens, f"d_{name}"))
 
 
+@dataclasses.dataclass
+class _Starts:
+    """Every start between two iterations (host arrays, ``S`` starts, ``n_p`` parameters).
+
+    Attributes:
+        x: ``(S, n_p)`` the point to evaluate next, in the unit box.
+        v0: ``(S, n_v)`` where its gait search starts.
+        good_x, good_v: the last accepted point and its fixed point.
+        state: the optax state (one per start).
+        multipliers: ``(S, n_hold)`` of the augmented Lagrangian.
+        active: the starts still running; ``final_status``, ``ended_at`` of those that ended.
+        scale: the step scale (halved at each failed step); ``failures`` in a row.
+    """
+
+    x: np.ndarray
+    v0: np.ndarray
+    good_x: np.ndarray
+    good_v: np.ndarray
+    state: object
+    multipliers: np.ndarray
+    active: np.ndarray
+    final_status: np.ndarray
+    ended_at: np.ndarray
+    scale: np.ndarray
+    failures: np.ndarray
+
+
+class _Evaluation(NamedTuple):
+    """One iteration's evaluation of every start."""
+
+    status: np.ndarray  # (S,) int8
+    f: np.ndarray  # (S,) the objective, sign included
+    df: np.ndarray  # (S, n_p) its gradient in model units
+    grad_x: np.ndarray  # (S, n_p) the Lagrangian's gradient in the unit box
+    quantity: object  # name -> (value (S,), gradient (S, n_p))
+    v: np.ndarray  # (S, n_v) the fixed points found
+
+
+@dataclasses.dataclass(frozen=True)
+class _Setup:
+    """What every iteration uses: the problem, the box, the programs."""
+
+    model: Walker
+    problem: Problem
+    lo: np.ndarray
+    width: np.ndarray
+    held: tuple[str, ...]
+    target: np.ndarray
+    fixed: Mapping[str, np.ndarray]
+    program: object
+    extra_fn: object
+    wanted: frozenset
+
+
 def optimise(
     model: Walker,
     problem: Problem,
@@ -190,115 +248,149 @@ def optimise(
         starts: ``(S, n_p)`` initial values of the optimised parameters, inside the bounds.
         progress: called with the row index after each evaluation.
     """
-    names = problem.names
-    lo, hi = np.asarray(problem.lower, np.float64), np.asarray(problem.upper, np.float64)
-    width = hi - lo
-    n_start, n_p = starts.shape
-    held = tuple(problem.hold)
-    target = np.array([problem.hold[h] for h in held], np.float64)
-    rows = problem.iterations + 1
-    program = sensitivity_program(model, names, solver, newton)
-    wanted = {problem.objective, *held} & set(EXTRA_QUANTITIES)
-    extra_fn = extra_program(model, names, solver, newton) if wanted else None
-    fixed = {k: np.broadcast_to(np.asarray(v, np.float64), (n_start,)) for k, v in fixed.items() if k not in names}
-
+    setup = _setup(model, problem, fixed, starts.shape[0], solver, newton)
     opt = make_optimizer(problem)
     opt_update = jax.jit(jax.vmap(opt.update))  # one optimiser per start: norms are per start
-    x = np.clip((starts - lo) / width, 0.0, 1.0)
-    state = jax.vmap(opt.init)(jnp.asarray(x))
-    v0 = np.stack([np.asarray(model.initial_guess({**{k: v[i] for k, v in fixed.items()}, **dict(zip(names, starts[i]))})) for i in range(n_start)])
-
-    out_params = np.full((rows, n_start, n_p), np.nan)
-    out_obj = np.full((rows, n_start), np.nan)
-    out_metrics = {q: np.full((rows, n_start), np.nan) for q in QUANTITIES if q not in EXTRA_QUANTITIES or q in wanted}
-    out_grad = np.full((rows, n_start, n_p), np.nan)
-    out_status = np.zeros((rows, n_start), np.int8)
-    out_accepted = np.zeros((rows, n_start), bool)
-    out_mult = np.zeros((rows, n_start, len(held)))
-    multipliers = np.zeros((n_start, len(held)))
-    active = np.ones(n_start, bool)
-    final_status = np.zeros(n_start, np.int8)
-    ended_at = np.full(n_start, rows - 1, np.int32)
-    good_x, good_v = x.copy(), v0.copy()
-    scale = np.ones(n_start)
-    failures = np.zeros(n_start, np.int32)
-
+    run = _begin(setup, opt, starts)
+    rows = problem.iterations + 1
+    path = _empty_path(rows, starts.shape, setup)
     for k in range(rows):
-        p = lo + width * x
-        batch = {**{n: jnp.asarray(p[:, i]) for i, n in enumerate(names)}, **{n: jnp.asarray(v) for n, v in fixed.items()}}
-        sens = program(batch, jnp.asarray(v0))
-        status = np.asarray(sens.status).astype(np.int8)
-        # Newton again from the gait just found: one iteration.
-        v_found = np.where(np.isfinite(np.asarray(sens.metrics.v)), np.asarray(sens.metrics.v), v0)
-        extra = None if extra_fn is None else extra_fn(batch, jnp.asarray(v_found))
-        f, df = _quantity(sens, problem.objective, extra)
-        f, df = problem.sign * f, problem.sign * df
-        grad_x = df * width  # chain rule into the unit box
-        for j, h in enumerate(held):
-            q, dq = _quantity(sens, h, extra)
-            c = (q - target[j]) / abs(target[j])
-            grad_x = grad_x + ((multipliers[:, j] + problem.penalty * c)[:, None] * dq / abs(target[j])) * width
-        ok = status == Status.OK
-        out_params[k][active] = p[active]
-        out_obj[k][active] = f[active]
-        for q in out_metrics:
-            out_metrics[q][k][active] = _quantity(sens, q, extra)[0][active]
-        out_grad[k][active] = (df)[active]
-        out_status[k] = np.where(active, status, final_status)
-        out_accepted[k] = active & ok
-        out_mult[k] = multipliers
+        ev = _evaluate(setup, run)
+        _store(path, k, run, ev, setup)
         if progress is not None:
             progress(k)
-
-        # Failed points: undo, halve, clear momentum; too many in a row (or at the start): end.
-        failed = active & ~ok
-        failures = np.where(failed, failures + 1, np.where(active, 0, failures))
-        end = failed & ((k == 0) | (failures > problem.max_retries))
-        final_status[end] = status[end]
-        ended_at[end] = k
-        active &= ~end
-        retry = failed & active
-        good_x[active & ok] = x[active & ok]
-        good_v[active & ok] = np.asarray(sens.metrics.v)[active & ok]
-        for j, h in enumerate(held):
-            q = _quantity(sens, h, extra)[0]
-            c = (q - target[j]) / abs(target[j])
-            dual_step = (k + 1) % problem.dual_every == 0
-            multipliers[:, j] = np.where(active & ok & dual_step, multipliers[:, j] + problem.penalty * c, multipliers[:, j])
-        scale = np.where(retry, 0.5 * scale, scale)
-        if k == rows - 1 or not active.any():
+        _judge(setup, run, ev, k)
+        if k == rows - 1 or not run.active.any():
             break
+        _advance(run, ev, opt_update)
+    return _finish_path(path, run, setup)
 
-        g = np.where((active & ok)[:, None], grad_x, 0.0)
-        updates, state = opt_update(jnp.asarray(g), state, jnp.asarray(x))
-        state = _clear_rows(state, retry, n_start)
-        step = np.asarray(updates) * scale[:, None]
-        x_next = np.clip(good_x + np.where((active & ok)[:, None], step, 0.0), 0.0, 1.0)
-        # A retry goes back to the last good point and tries half the step it had taken.
-        x_retry = np.clip(good_x + 0.5 * (x - good_x), 0.0, 1.0)
-        x = np.where(retry[:, None], x_retry, np.where(active[:, None], x_next, x))
-        v0 = good_v.copy()
 
-    merit = out_obj.copy()
-    for j, h in enumerate(held):
-        merit = merit + 0.5 * problem.penalty * ((out_metrics[h] - target[j]) / abs(target[j])) ** 2
-    merit = np.where(out_accepted, merit, np.inf)
-    best_row = np.where(out_accepted.any(0), np.argmin(merit, axis=0), -1).astype(np.int32)
-    best_params = np.where((best_row >= 0)[:, None], out_params[np.maximum(best_row, 0), np.arange(n_start)], np.nan)
-    return Path(
-        params=out_params,
-        objective=out_obj,
-        metrics=out_metrics,
-        gradient=out_grad,
-        status=out_status,
-        accepted=out_accepted,
-        multipliers=out_mult,
-        final_params=lo + width * good_x,
-        best_params=best_params,
-        best_row=best_row,
-        final_status=final_status,
-        ended_at=ended_at,
+def _setup(model, problem: Problem, fixed, n_start: int, solver, newton) -> _Setup:
+    names = problem.names
+    held = tuple(problem.hold)
+    wanted = frozenset({problem.objective, *held} & set(EXTRA_QUANTITIES))
+    return _Setup(
+        model=model, problem=problem, lo=np.asarray(problem.lower, np.float64),
+        width=np.asarray(problem.upper, np.float64) - np.asarray(problem.lower, np.float64),
+        held=held, target=np.array([problem.hold[h] for h in held], np.float64),
+        fixed={k: np.broadcast_to(np.asarray(v, np.float64), (n_start,)) for k, v in fixed.items() if k not in names},
+        program=sensitivity_program(model, names, solver, newton),
+        extra_fn=extra_program(model, names, solver, newton) if wanted else None, wanted=wanted,
     )
+
+
+def _begin(setup: _Setup, opt, starts: np.ndarray) -> _Starts:
+    """Every start at its initial point, Newton from the model's guess there."""
+    n_start = starts.shape[0]
+    names, fixed = setup.problem.names, setup.fixed
+    x = np.clip((starts - setup.lo) / setup.width, 0.0, 1.0)
+    v0 = np.stack([np.asarray(setup.model.initial_guess({**{k: v[i] for k, v in fixed.items()}, **dict(zip(names, starts[i]))}))
+                   for i in range(n_start)])
+    return _Starts(
+        x=x, v0=v0, good_x=x.copy(), good_v=v0.copy(), state=jax.vmap(opt.init)(jnp.asarray(x)),
+        multipliers=np.zeros((n_start, len(setup.held))), active=np.ones(n_start, bool),
+        final_status=np.zeros(n_start, np.int8), ended_at=np.full(n_start, setup.problem.iterations, np.int32),
+        scale=np.ones(n_start), failures=np.zeros(n_start, np.int32),
+    )
+
+
+def _evaluate(setup: _Setup, run: _Starts) -> _Evaluation:
+    """The gait, the objective and the Lagrangian's gradient at every start's point."""
+    problem, width = setup.problem, setup.width
+    p = setup.lo + width * run.x
+    batch = {**{n: jnp.asarray(p[:, i]) for i, n in enumerate(problem.names)}, **{n: jnp.asarray(v) for n, v in setup.fixed.items()}}
+    sens = setup.program(batch, jnp.asarray(run.v0))
+    status = np.asarray(sens.status).astype(np.int8)
+    # Newton again from the gait just found: one iteration.
+    v_found = np.where(np.isfinite(np.asarray(sens.metrics.v)), np.asarray(sens.metrics.v), run.v0)
+    extra = None if setup.extra_fn is None else setup.extra_fn(batch, jnp.asarray(v_found))
+    quantity = functools.partial(_quantity, sens, extra=extra)
+    f, df = quantity(problem.objective)
+    f, df = problem.sign * f, problem.sign * df
+    grad_x = df * width  # chain rule into the unit box
+    for j, h in enumerate(setup.held):
+        q, dq = quantity(h)
+        c = (q - setup.target[j]) / abs(setup.target[j])
+        grad_x = grad_x + ((run.multipliers[:, j] + problem.penalty * c)[:, None] * dq / abs(setup.target[j])) * width
+    return _Evaluation(status, f, df, grad_x, quantity, np.asarray(sens.metrics.v))
+
+
+def _judge(setup: _Setup, run: _Starts, ev: _Evaluation, k: int) -> None:
+    """Failed points: undo, halve, clear momentum; too many in a row (or at the start):
+    end. Accepted points become the last good ones; the multipliers take their dual step."""
+    problem = setup.problem
+    ok = ev.status == Status.OK
+    failed = run.active & ~ok
+    run.failures = np.where(failed, run.failures + 1, np.where(run.active, 0, run.failures))
+    end = failed & ((k == 0) | (run.failures > problem.max_retries))
+    run.final_status[end] = ev.status[end]
+    run.ended_at[end] = k
+    run.active &= ~end
+    retry = failed & run.active
+    run.good_x[run.active & ok] = run.x[run.active & ok]
+    run.good_v[run.active & ok] = ev.v[run.active & ok]
+    for j, h in enumerate(setup.held):
+        q = ev.quantity(h)[0]
+        c = (q - setup.target[j]) / abs(setup.target[j])
+        dual_step = (k + 1) % problem.dual_every == 0
+        run.multipliers[:, j] = np.where(run.active & ok & dual_step, run.multipliers[:, j] + problem.penalty * c,
+                                         run.multipliers[:, j])
+    run.scale = np.where(retry, 0.5 * run.scale, run.scale)
+
+
+def _advance(run: _Starts, ev: _Evaluation, opt_update) -> None:
+    """The next point of every start: an optax step from the last good point, or
+    (after a failure) half the step it had taken."""
+    ok = ev.status == Status.OK
+    retry = run.active & ~ok
+    g = np.where((run.active & ok)[:, None], ev.grad_x, 0.0)
+    updates, state = opt_update(jnp.asarray(g), run.state, jnp.asarray(run.x))
+    run.state = _clear_rows(state, retry, run.x.shape[0])
+    step = np.asarray(updates) * run.scale[:, None]
+    x_next = np.clip(run.good_x + np.where((run.active & ok)[:, None], step, 0.0), 0.0, 1.0)
+    x_retry = np.clip(run.good_x + 0.5 * (run.x - run.good_x), 0.0, 1.0)
+    run.x = np.where(retry[:, None], x_retry, np.where(run.active[:, None], x_next, run.x))
+    run.v0 = run.good_v.copy()
+
+
+def _empty_path(rows: int, shape: tuple[int, int], setup: _Setup) -> Path:
+    """A :class:`Path` of ``rows`` rows to fill in place; its per-start fields come at the end (:func:`_finish_path`)."""
+    n_start, n_p = shape
+    quantities = [q for q in QUANTITIES if q not in EXTRA_QUANTITIES or q in setup.wanted]
+    return Path(
+        params=np.full((rows, n_start, n_p), np.nan), objective=np.full((rows, n_start), np.nan),
+        metrics={q: np.full((rows, n_start), np.nan) for q in quantities}, gradient=np.full((rows, n_start, n_p), np.nan),
+        status=np.zeros((rows, n_start), np.int8), accepted=np.zeros((rows, n_start), bool),
+        multipliers=np.zeros((rows, n_start, len(setup.held))),
+        final_params=None, best_params=None, best_row=None, final_status=None, ended_at=None,
+    )
+
+
+def _store(path: Path, k: int, run: _Starts, ev: _Evaluation, setup: _Setup) -> None:
+    """Row ``k`` of ``path``: the running starts' evaluation (an ended start keeps its final status)."""
+    active = run.active
+    path.params[k][active] = (setup.lo + setup.width * run.x)[active]
+    path.objective[k][active] = ev.f[active]
+    for q in path.metrics:
+        path.metrics[q][k][active] = ev.quantity(q)[0][active]
+    path.gradient[k][active] = ev.df[active]
+    path.status[k] = np.where(active, ev.status, run.final_status)
+    path.accepted[k] = active & (ev.status == Status.OK)
+    path.multipliers[k] = run.multipliers
+
+
+def _finish_path(path: Path, run: _Starts, setup: _Setup) -> Path:
+    """``path`` with each start's last and best accepted point (least merit) and how it ended."""
+    problem, n_start = setup.problem, run.x.shape[0]
+    merit = path.objective.copy()
+    for j, h in enumerate(setup.held):
+        merit = merit + 0.5 * problem.penalty * ((path.metrics[h] - setup.target[j]) / abs(setup.target[j])) ** 2
+    merit = np.where(path.accepted, merit, np.inf)
+    best_row = np.where(path.accepted.any(0), np.argmin(merit, axis=0), -1).astype(np.int32)
+    best_params = np.where((best_row >= 0)[:, None], path.params[np.maximum(best_row, 0), np.arange(n_start)], np.nan)
+    return path._replace(final_params=setup.lo + setup.width * run.good_x, best_params=best_params, best_row=best_row,
+                         final_status=run.final_status, ended_at=run.ended_at)
 
 
 def _clear_rows(state, rows: np.ndarray, n_start: int):

@@ -22,6 +22,7 @@ from pathlib import Path as FilePath
 import numpy as np
 import xarray as xr
 
+from jaxwalk import analyses, outputs
 from jaxwalk.optimize.config import OptimizeConfig
 from jaxwalk.optimize.engine import QUANTITIES, Path, optimise
 from jaxwalk.status import Status, flag_attributes
@@ -93,7 +94,7 @@ def build_dataset(config: OptimizeConfig, model, path: Path, heatmap: xr.Dataset
     """The path (and background) as a self-describing xarray dataset."""
     p = config.problem
     units = output_units(model)
-    q_units = {"lambda_max": "1", "speed": units["speed"], "step_length": units["length"], "period": units["time"], "cost_of_transport": "1", "gait_sensitivity_norm": "indicator units per length"}
+    q_units = {q: outputs.units_text(analyses.output(q), units) for q in QUANTITIES}
     dims = ("iteration", "start")
     data = {}
     for i, n in enumerate(p.names):

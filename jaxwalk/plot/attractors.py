@@ -1,4 +1,4 @@
-"""Figures of the attractor variables (``[analysis] attractors``, :mod:`jaxwalk.sweep.attractors`).
+"""Figures of the attractor variables (``[analysis] attractors``, :mod:`jaxwalk.analyses.attractors`).
 
 ``attractor_period`` (period-k regions) and ``attractor_rate`` (per-step
 contraction) are drawn like any variable, but on a view of the dataset whose

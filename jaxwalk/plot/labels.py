@@ -1,40 +1,20 @@
 """Words on a figure: axis labels, variable labels with units, titles.
 
 Grid axes are labelled ``name: long name [units]`` from their coordinate's
-attributes (the parameter's spec); variables by a short symbol and units,
-since their ``long_name`` attributes are sentences.
+attributes (the parameter's spec); variables by the short symbol their
+declaration gives (:attr:`jaxwalk.outputs.Output.label`) and units.
 """
 
 from __future__ import annotations
 
 import xarray as xr
 
-#: Short symbols (matplotlib mathtext) for the variables figures usually show.
-SYMBOLS = {
-    "lambda_max": r"$\lambda_{\max}$",
-    "h_max": r"$h_{\max}$",
-    "speed": "speed",
-    "cost_of_transport": "cost of transport",
-    "step_length": "step length",
-    "period": "step period",
-    "attractor_period": "attractor period k [steps]",
-    "attractor_rate": r"attractor rate $\lambda_{\max,k}^{1/k}$",
-    "gait_sensitivity_norm": "gait sensitivity norm",
-    "mfpt": "MFPT",
-}
-#: What each shows, for titles.
-MEANINGS = {
-    "lambda_max": "local stability: largest eigenvalue modulus (stable below 1)",
-    "h_max": "global stability: largest survived step-down",
-    "speed": "mean walking speed",
-    "cost_of_transport": "actuator work per weight and distance",
-    "step_length": "distance the stance foot advances per step",
-    "period": "duration of one step",
-    "attractor_period": "steps per cycle of the gait the walker settles on",
-    "attractor_rate": "per-step contraction of the gait the walker settles on",
-    "gait_sensitivity_norm": "response of step time and length to floor height (H2 norm)",
-    "mfpt": "mean steps before a fall on random terrain",
-}
+from jaxwalk import analyses
+
+#: Short symbols (matplotlib mathtext) of the variables that declare one (:mod:`jaxwalk.analyses`).
+SYMBOLS = {o.name: o.label for o in analyses.declared() if o.label}
+#: What each shows, for titles (those that declare it; others: their ``long_name``).
+MEANINGS = {o.name: o.meaning for o in analyses.declared() if o.meaning}
 #: The legend text of the stability boundary.
 STABILITY_LIMIT = r"$\lambda_{\max} = 1$ (stability limit)"
 #: The legend text of gaits found but unstable.

@@ -38,10 +38,9 @@ def make_figures(
 
     Args:
         ds: a sweep dataset (in memory; :func:`jaxwalk.plot.source.open_sweep` reads one).
-        variables: names to draw (default: ``lambda_max``, ``h_max``, ``speed``,
-            ``cost_of_transport``, ``attractor_period``, ``attractor_rate``, those
-            the dataset has with values; attractor variables on the attractor's
-            statuses, :mod:`jaxwalk.plot.attractors`).
+        variables: names to draw (default: :data:`jaxwalk.plot.source.DEFAULT_VARIABLES`,
+            those the dataset has with values; attractor variables on the
+            attractor's statuses, :mod:`jaxwalk.plot.attractors`).
         kinds: among :data:`KINDS`; default: line plots, and heatmaps when the grid
             has two axes of more than one value. A heatmap asked for on a grid
             without them is an error.

@@ -16,16 +16,15 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from jaxwalk import analyses
 from jaxwalk.status import Status
 from jaxwalk.sweep.config import ConfigError
 from jaxwalk.sweep.integrity import check_complete
 
-#: The variables drawn by default, in this order, when the dataset has them with values.
-#: ``h_max`` (``[analysis] h_max``), ``cost_of_transport``, the global-stability
-#: measures (``[analysis] gait_sensitivity``, ``mfpt``) and the attractor's
-#: (``[analysis] attractors``) are optional.
-DEFAULT_VARIABLES = ("lambda_max", "h_max", "gait_sensitivity_norm", "mfpt", "speed", "cost_of_transport",
-                     "attractor_period", "attractor_rate")
+#: The variables drawn by default, in this order, when the dataset has them with values:
+#: those whose declaration ranks them (:attr:`jaxwalk.outputs.Output.plot`; stability
+#: measures first); those of the analyses beside the gait only where they ran.
+DEFAULT_VARIABLES = tuple(o.name for o in sorted((o for o in analyses.declared() if o.plot is not None), key=lambda o: o.plot))
 
 
 class PlotError(ConfigError):

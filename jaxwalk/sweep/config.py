@@ -21,7 +21,6 @@ the section and the key at fault.
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import json
 import math
 import re
@@ -31,9 +30,10 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from jaxwalk import analyses
+from jaxwalk.analyses import did_you_mean as _did_you_mean
 from jaxwalk.models import get_model
 from jaxwalk.parameters import ParamSpec
-from jaxwalk.sweep import attractors
 from jaxwalk.walker import check_supported
 
 #: Largest grid accepted by default (points); callers may pass their own ``max_points``.
@@ -44,12 +44,8 @@ TOP_LEVEL_KEYS = ("name", "model", *SECTIONS)
 AXIS_KEYS = ("start", "stop", "num", "values")
 #: Solver settings passed through to the analysis when set (absent: its defaults).
 SOLVER_KEYS = ("rtol", "atol", "newton_tol", "max_newton_iter")
-#: ``[analysis] gait_sensitivity`` and ``mfpt`` are read by :mod:`jaxwalk.global_stability.options`.
-GLOBAL_STABILITY_KEYS = ("gait_sensitivity", "mfpt")
-ANALYSIS_KEYS = ("stability", "continuation", "seed_axis", "h_max", "attractors", "bifurcations",
-                 *GLOBAL_STABILITY_KEYS, *SOLVER_KEYS)
-#: Keys of ``[analysis] h_max`` and the :class:`jaxwalk.stepdown.StepDownOptions` fields they set.
-H_MAX_KEYS = {"step": "dh", "count": "count", "steps": "n_steps"}
+#: ``[analysis]`` keys: the gait's, the plug-ins' (:mod:`jaxwalk.analyses`), the solver's.
+ANALYSIS_KEYS = ("stability", "continuation", "seed_axis", *analyses.keys(), *SOLVER_KEYS)
 
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*\Z")
 
@@ -91,16 +87,14 @@ class SweepConfig:
             line its start (:mod:`jaxwalk.seedline`), or ``None`` (each line
             starts from the model's initial guess).
         solver: the solver settings of ``[analysis]`` that were given.
-        h_max: the global-stability test (the largest survived step-down), resolved
-            with its defaults: ``{"step": float, "count": int, "steps": int}``
-            (resolution in model length units, drops tried ``step, 2 step, ...,
-            count * step``, steps to survive after the drop), or ``None`` when off.
-        attractors: the attractor search (``{"max_period": int, "steps": int}``,
-            :mod:`jaxwalk.sweep.attractors`), or ``None`` when off.
-        global_stability: the resolved ``[analysis] gait_sensitivity`` and
-            ``mfpt`` that are set (:mod:`jaxwalk.global_stability.options`); ``{}`` when neither is.
-        bifurcations: locate the bifurcations of every continuation line
-            (:mod:`jaxwalk.sweep.bifurcations`).
+        analyses: the resolved settings of the analyses beside the gait that are
+            on, by name (:mod:`jaxwalk.analyses`); each is also an attribute,
+            its ``off`` value when it is off: ``config.h_max`` (the step-down
+            test, ``{"step": float, "count": int, "steps": int}`` or ``None``),
+            ``config.attractors`` (``{"max_period": int, "steps": int}`` or
+            ``None``), ``config.global_stability`` (the resolved
+            ``gait_sensitivity`` and ``mfpt`` that are set, ``{}`` when neither
+            is), ``config.bifurcations`` (bool), ...
         source: where the config came from (a path, or a label).
         text: the TOML source, when read from text.
     """
@@ -114,12 +108,18 @@ class SweepConfig:
     continuation: str | None = None
     seed_axis: str | None = None
     solver: dict[str, float | int] = dataclasses.field(default_factory=dict)
-    h_max: dict[str, float | int] | None = None
-    attractors: dict[str, int] | None = None
-    global_stability: dict = dataclasses.field(default_factory=dict)
-    bifurcations: bool = False
+    analyses: dict[str, Any] = dataclasses.field(default_factory=dict)
     source: str = "<config>"
     text: str | None = None
+
+    def __getattr__(self, name: str) -> Any:
+        # Only reached for names that are not fields: an analysis's setting by its name.
+        if name.startswith("_"):
+            raise AttributeError(name)
+        for analysis in analyses.plugins():
+            if analysis.name == name:
+                return self.__dict__.get("analyses", {}).get(name, analysis.off)
+        raise AttributeError(f"'SweepConfig' has no attribute '{name}'")
 
     @property
     def dims(self) -> tuple[str, ...]:
@@ -143,9 +143,13 @@ class SweepConfig:
 
         ``params`` holds every fixed value, defaults included; ``continuation`` is
         the axis used, or ``False``; ``seed_axis`` appears only when set (so
-        configs without it keep their fingerprint); ``h_max`` the step-down
-        settings with their defaults, or ``False``.
+        configs without it keep their fingerprint); then each analysis's
+        entries (:meth:`jaxwalk.analyses.base.Analysis.to_dict`: ``h_max`` the
+        step-down settings with their defaults, or ``False``; the others only when on).
         """
+        entries = {}
+        for analysis in analyses.plugins():
+            entries.update(analysis.to_dict(self.analyses.get(analysis.name, analysis.off)))
         return {
             "name": self.name,
             "model": self.model,
@@ -155,10 +159,7 @@ class SweepConfig:
                 "stability": self.stability,
                 "continuation": self.continuation if self.continuation is not None else False,
                 **({"seed_axis": self.seed_axis} if self.seed_axis is not None else {}),
-                "h_max": dict(self.h_max) if self.h_max is not None else False,
-                **({"attractors": dict(self.attractors)} if self.attractors is not None else {}),
-                **self.global_stability,  # only the keys that are set: fingerprints unchanged without them
-                **({"bifurcations": True} if self.bifurcations else {}),
+                **entries,
                 **self.solver,
             },
         }
@@ -242,10 +243,11 @@ def parse_config(
     axis_specs = {
         axis: _axis_spec(axis, spec, specs, params, model_name, fail) for axis, spec in axes_raw.items()
     }
-    stability, continuation, seed_axis, solver, h_max = _analysis(data.get("analysis", {}), list(axis_specs), fail)
-    global_stability = _global_stability(data.get("analysis", {}), fail)
-    check_supported(model, {"h_max": h_max, **global_stability}, fail)  # the capabilities they need (jaxwalk.walker)
-    _check_size(axis_specs, len(model.section_names), max_points, fail, h_max=h_max is not None)
+    table = data.get("analysis", {})
+    stability, continuation, seed_axis, solver = _analysis(table, list(axis_specs), fail)
+    settings = _analyses(table, continuation, model, fail)
+    check_supported(model, _requested(settings), fail)  # the capabilities they need (jaxwalk.walker)
+    _check_size(axis_specs, len(model.section_names), max_points, fail, settings)
     axes = tuple(_axis(axis, spec) for axis, spec in axis_specs.items())
 
     fixed = {p: spec.default for p, spec in specs.items() if p not in axis_specs}
@@ -260,10 +262,7 @@ def parse_config(
         continuation=continuation,
         seed_axis=seed_axis,
         solver=solver,
-        h_max=h_max,
-        attractors=attractors.parse(data.get("analysis", {}).get("attractors", False), fail),
-        global_stability=global_stability,
-        bifurcations=_bifurcations(data.get("analysis", {}).get("bifurcations", False), continuation, fail),
+        analyses=settings,
         source=source,
         text=text,
     )
@@ -369,19 +368,19 @@ def _axis(name: str, spec: dict[str, Any]) -> GridAxis:
     return GridAxis(name, values, spec)
 
 
-def _check_size(axis_specs, n_v, max_points, fail, *, h_max: bool = False) -> None:
+def _check_size(axis_specs, n_v, max_points, fail, settings: Mapping[str, Any]) -> None:
     lengths = [len(s["values"]) if "values" in s else s["num"] for s in axis_specs.values()]
     n = math.prod(lengths)
     if n > max_points:
         shape = " x ".join(str(k) for k in lengths)
         raise fail(
             f"[grid] has {n:,} points ({shape}), more than the limit of {max_points:,}; "
-            f"its results alone would take about {_human_bytes(n * result_bytes_per_point(n_v, h_max=h_max))} "
+            f"its results alone would take about {_human_bytes(n * result_bytes_per_point(n_v, settings))} "
             "(shrink the grid or raise the limit, --max-points)"
         )
 
 
-def _analysis(table, names, fail) -> tuple[bool, str | None, str | None, dict[str, float | int], dict[str, float | int] | None]:
+def _analysis(table, names, fail) -> tuple[bool, str | None, str | None, dict[str, float | int]]:
     for key in table:
         if key not in ANALYSIS_KEYS:
             raise fail(f"[analysis]: unknown key '{key}'{_did_you_mean(key, ANALYSIS_KEYS)} (allowed: {', '.join(ANALYSIS_KEYS)})")
@@ -413,16 +412,26 @@ def _analysis(table, names, fail) -> tuple[bool, str | None, str | None, dict[st
                 raise fail(f"[analysis]: {key} must be a positive number, got {value!r}")
             value = float(value)
         solver[key] = value
-    return stability, continuation, seed_axis, solver, _h_max(table.get("h_max", False), fail)
+    return stability, continuation, seed_axis, solver
 
 
-def _bifurcations(value, continuation, fail) -> bool:
-    """``[analysis] bifurcations``: ``true`` needs a continuation axis (the lines it searches)."""
-    if not isinstance(value, bool):
-        raise fail(f"[analysis]: bifurcations must be true or false, got {value!r}")
-    if value and continuation is None:
-        raise fail("[analysis]: bifurcations = true needs a continuation axis (continuation is off)")
-    return value
+def _analyses(table, continuation, model, fail) -> dict[str, Any]:
+    """The resolved settings of the plug-ins that are on (:mod:`jaxwalk.analyses`), each checked against the model."""
+    out = {}
+    for analysis in analyses.plugins():
+        resolved = analysis.parse(table, fail, continuation=continuation)
+        if resolved != analysis.off:
+            analysis.check_model(resolved, model, fail)
+            out[analysis.name] = resolved
+    return out
+
+
+def _requested(settings: Mapping[str, Any]) -> dict[str, Any]:
+    """The plug-ins' settings by config key (global stability's keys are its table's)."""
+    out = {}
+    for name, value in settings.items():
+        out.update(value if name == "global_stability" and isinstance(value, Mapping) else {name: value})
+    return out
 
 
 def _seed_axis(value, continuation, names, fail) -> str | None:
@@ -441,69 +450,20 @@ def _seed_axis(value, continuation, names, fail) -> str | None:
     return value
 
 
-def _h_max(value, fail) -> dict[str, float | int] | None:
-    """``[analysis] h_max``: ``false`` (off), ``true`` (the defaults) or a table of
-    ``step``/``count``/``steps``, each optional; resolved with the defaults of
-    :class:`jaxwalk.stepdown.StepDownOptions` (imported only when asked for)."""
-    where = "[analysis] h_max"
-    if value is False:
-        return None
-    if value is not True and not isinstance(value, Mapping):
-        raise fail(
-            f"{where} must be true, false or a table {{ step = .., count = .., steps = .. }}, got {value!r}"
-        )
-    table = {} if value is True else value
-    for key in table:
-        if key not in H_MAX_KEYS:
-            raise fail(f"{where}: unknown key '{key}'{_did_you_mean(key, H_MAX_KEYS)} (allowed: {', '.join(H_MAX_KEYS)})")
-    step = table.get("step")
-    if step is not None and (isinstance(step, bool) or not isinstance(step, (int, float)) or not (0 < step < math.inf)):
-        raise fail(f"{where}: step must be a positive number (the resolution, in model length units), got {step!r}")
-    for key, meaning in (("count", "drops tried: step, 2 step, ..., count * step"), ("steps", "steps to survive after the drop")):
-        n = table.get(key)
-        if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < 1):
-            raise fail(f"{where}: {key} must be a positive integer ({meaning}), got {n!r}")
-
-    from jaxwalk.stepdown import StepDownOptions
-
-    defaults = StepDownOptions()
-    return {
-        "step": float(table.get("step", defaults.dh)),
-        "count": int(table.get("count", defaults.count)),
-        "steps": int(table.get("steps", defaults.n_steps)),
-    }
-
-
-def _global_stability(table, fail) -> dict:
-    """``[analysis] gait_sensitivity`` and ``mfpt``, resolved (only those set)."""
-    if not any(k in table for k in GLOBAL_STABILITY_KEYS):
-        return {}
-    from jaxwalk.global_stability.options import parse
-
-    return parse(table, fail)
-
-
 # ---------------------------------------------------------------- helpers
 
 
-def result_bytes_per_point(n_v: int, *, h_max: bool = False) -> int:
-    """Bytes one grid point takes in the dataset (see :mod:`jaxwalk.sweep.dataset`).
+def result_bytes_per_point(n_v: int, settings: Mapping[str, Any] | None = None) -> int:
+    """Bytes one grid point takes in the dataset: the gait's outputs and those of
+    the analyses ``settings`` turns on (``{name: resolved}``, as ``SweepConfig.analyses``)."""
+    from jaxwalk import outputs
 
-    status int8, newton_iterations int32, lambda_max, period, step_length, speed,
-    work, cost_of_transport float64, and per section coordinate a fixed-point
-    float64 and an eigenvalue (real and imaginary float64); with ``h_max`` also
-    step_down_status int8 and h_max, h_failed float64.
-    """
-    return 1 + 4 + 6 * 8 + n_v * (8 + 16) + ((1 + 2 * 8) if h_max else 0)
+    act = analyses.active_settings({**(settings or {}), "gait": True})
+    return outputs.bytes_per_point(analyses.outputs(act), analyses.sizes(act, n_v))
 
 
 def _unknown_param(key: str, specs: Mapping[str, ParamSpec], model: str) -> str:
     return f"unknown parameter '{key}' for model '{model}'{_did_you_mean(key, specs)} (known: {', '.join(specs)})"
-
-
-def _did_you_mean(key: str, choices) -> str:
-    close = difflib.get_close_matches(str(key), list(choices), n=1)
-    return f" (did you mean '{close[0]}'?)" if close else ""
 
 
 def _kind(value) -> str:

@@ -18,12 +18,24 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from jaxwalk import analyses
 from jaxwalk.status import Status
 from jaxwalk.sweep.config import ConfigError
 
-#: Numbers a written point with ``status == OK`` always has (``lambda_max`` and
-#: ``h_max`` only when computed: somewhere finite).
-REQUIRED = ("lambda_max", "period", "step_length", "speed", "work", "cost_of_transport", "h_max")
+
+def required() -> tuple[str, ...]:
+    """Numbers over the grid that a written point with ``status == OK`` always has:
+    the outputs declared finite where the gait is (:mod:`jaxwalk.analyses`;
+    ``lambda_max`` and ``h_max`` only when computed: somewhere finite)."""
+    return tuple(
+        o.name for a in analyses.registry() if a.status_of_outputs == "status" for o in a.outputs(a.fullest())
+        if o.finite_where_ok and not o.trailing and not o.is_complex
+    )
+
+
+def statuses() -> tuple[str, ...]:
+    """The status variables any analysis writes."""
+    return tuple(o.name for o in analyses.declared() if o.flags)
 
 
 class IncompleteStore(ConfigError):
@@ -35,7 +47,7 @@ def missing_points(ds: xr.Dataset) -> np.ndarray:
     status = ds["status"].values
     missing = status == Status.NOT_COMPUTED
     ok = status == Status.OK
-    for name in REQUIRED:
+    for name in required():
         if name in ds and ds[name].dims == ds["status"].dims:
             nan = ~np.isfinite(ds[name].values)
             if (ok & ~nan).any():  # computed in this sweep: NaN at an OK point is a lost file
@@ -108,7 +120,7 @@ def check_complete(ds: xr.Dataset, where: str | Path, *, partial: bool = False) 
         if var.dims[: len(grid_dims)] != grid_dims:
             continue
         where_missing = xr.DataArray(mask, dims=grid_dims)
-        if name in ("status", "step_down_status"):
+        if name in statuses():
             ds[name] = var.where(~where_missing, np.int8(Status.NOT_COMPUTED)).astype(var.dtype)
         elif np.issubdtype(var.dtype, np.inexact):
             ds[name] = var.where(~where_missing)

@@ -11,14 +11,14 @@ axes in grid order (``{name: (n_i,) float64}``), ``continuation_axis`` a key of
 ``grid`` or ``None``, ``options`` a :class:`jaxwalk.grid.AnalysisOptions` made
 from ``[analysis]`` (:func:`analysis_options`), and ``progress`` a callable
 taking the number of grid points just finished. For grid shape ``S`` it returns
-``status`` (int, ``S``), ``lambda_max``, ``period``, ``step_length``, ``speed``,
-``work`` (actuator work per step), ``cost_of_transport``,
-``newton_iterations`` (``S``), ``eigenvalues`` (complex, ``S + (n_v,)``) and
-``fixed_point`` (``S + (n_v,)``); when ``options.step_down`` is set (``[analysis]
-h_max``) also ``h_max`` (float, ``S``; NaN where no gait), ``step_down_status``
-(int, ``S``; the first failed drop's status, ``OK`` if none failed up to the
-limit, the gait's status where there is no gait) and ``h_failed`` (float, ``S``;
-the first failed drop's height, NaN if none); other keys are ignored.
+the outputs every active analysis declares (:mod:`jaxwalk.analyses`): the
+gait's always (``status``, ``lambda_max``, ``eigenvalues``, ``fixed_point``,
+``period``, ``step_length``, ``speed``, ``work``, ``cost_of_transport``,
+``newton_iterations``: :mod:`jaxwalk.analyses.gait`), and those of each
+analysis ``options`` asks for (``[analysis] h_max``: ``h_max``,
+``step_down_status``, ``h_failed``, :mod:`jaxwalk.analyses.step_down`; ...),
+each with the grid's shape ``S`` plus its declared trailing axes; other keys
+are ignored.
 
 With ``[analysis] seed_axis`` the runner first runs the seed lines
 (:func:`jaxwalk.seedline.seed_lines`, the engine's own, whatever ``analyse``
@@ -30,7 +30,7 @@ The runner calls it once per block of the grid (``grid`` is then the block's
 sub-grid, ``jaxwalk.grid.sub_grid``; blocks hold whole continuation lines), in
 this process or as a Dask task (:mod:`jaxwalk.sweep.chunks`), and writes each
 block as it finishes (:mod:`jaxwalk.sweep.store`); within a block the analysis
-owns batching and devices. :func:`check_results` holds each block to this contract.
+owns batching and devices. :func:`jaxwalk.analyses.check_block` holds each block to this contract.
 """
 
 from __future__ import annotations
@@ -46,30 +46,19 @@ from typing import Callable, Mapping
 
 import numpy as np
 
+from jaxwalk import analyses
+from jaxwalk.analyses import gait, step_down
+from jaxwalk.analyses.step_down import ANALYSIS as step_down_analysis
 from jaxwalk.models import get_model
-from jaxwalk.status import RESULT_STATUSES, Status
-from jaxwalk.sweep import attractors
 from jaxwalk.sweep.config import DEFAULT_MAX_POINTS, ConfigError, SweepConfig, load_config
 
 Analyse = Callable[..., Mapping[str, np.ndarray]]
 
-#: Result arrays, with whether they carry a section-sized trailing axis.
-RESULT_KEYS = {
-    "status": False,
-    "lambda_max": False,
-    "eigenvalues": True,
-    "fixed_point": True,
-    "period": False,
-    "step_length": False,
-    "speed": False,
-    "work": False,
-    "cost_of_transport": False,
-    "newton_iterations": False,
-}
-_FLOATS = ("lambda_max", "eigenvalues", "fixed_point", "period", "step_length", "speed", "work", "cost_of_transport")
-#: Result arrays of the step-down test (``[analysis] h_max``), all of the grid's shape.
-STEP_DOWN_KEYS = ("h_max", "step_down_status", "h_failed")
-_VALID_CODES = np.array([int(s) for s in RESULT_STATUSES])
+#: The gait's result arrays, with whether they carry a section-sized trailing axis
+#: (declared in :mod:`jaxwalk.analyses.gait`).
+RESULT_KEYS = {o.name: bool(o.trailing) for o in gait.OUTPUTS}
+#: Result arrays of the step-down test (``[analysis] h_max``, :mod:`jaxwalk.analyses.step_down`), all of the grid's shape.
+STEP_DOWN_KEYS = tuple(o.name for o in step_down.OUTPUTS)
 #: ``[analysis]`` keys and the ``NewtonOptions`` / ``SolverOptions`` fields they set.
 _NEWTON_FIELDS = {"newton_tol": "tol", "max_newton_iter": "max_iter"}
 _SOLVER_FIELDS = {"rtol": "rtol", "atol": "atol"}
@@ -116,48 +105,22 @@ def run_sweep(
             different sweep there, or too little disk space, before anything is
             computed or written.
     """
-    if not isinstance(config, SweepConfig):
-        config = load_config(config, max_points=max_points)
-    model = get_model(config.model)
-    target = check_output(out_dir, config.name, overwrite=overwrite)
-    options = analysis_options(config)
+    config, model, target, options = _prepare(config, out_dir, max_points=max_points, overwrite=overwrite, chunk_size=chunk_size)
     if analyse is None:
         from jaxwalk import grid
 
         analyse = grid.analyse_grid
     if command is None:
         command = " ".join(shlex.quote(a) for a in sys.argv)
-
-    if chunk_size is not None:
-        options = dataclasses.replace(options, chunk_size=chunk_size)
-
-    from jaxwalk.sweep.store import ChunkStore
-
-    step_down = config.h_max is not None
-    keys = {**RESULT_KEYS, **({k: False for k in STEP_DOWN_KEYS} if step_down else {}), **_global_keys(config)}
-    n_v = len(model.section_names)
-    attractor_keys = None if config.attractors is None else attractors.result_keys(config.attractors, n_v)
-    keys.update(attractor_keys or {})
-    store = ChunkStore.plan(  # checks a partial run and the disk space; writes nothing
-        config, model, target, chunk_size=options.chunk_size, options=_as_attribute(options), result_keys=keys,
-        command=command, overwrite=overwrite,
-    )
+    store = _plan_store(config, model, target, options, command=command, overwrite=overwrite)  # checks; writes nothing
     seeds = None
     if config.seed_axis is not None:  # once for the whole grid, before its blocks (jaxwalk.seedline)
         from jaxwalk.seedline import seed_lines
 
         seeds = seed_lines(model, config.fixed, config.grid, config.continuation, config.seed_axis, options)
     starts = None if seeds is None else seeds.starts
-    _compute_blocks(config, analyse, options, store, keys, n_v, starts, progress=progress, dask=dask, command=command)
-    if seeds is not None:
-        from jaxwalk.seedline import dataset_attributes
-
-        store.set_attributes(dataset_attributes(seeds))
-    if config.bifurcations:  # from the whole lines written (jaxwalk.sweep.bifurcations)
-        from jaxwalk.sweep.bifurcations import write_table
-
-        write_table(config, model, store.store, options)
-    store.finish()
+    _compute_blocks(config, analyse, options, store, starts, progress=progress, dask=dask, command=command)
+    _finish(config, model, store, options, seeds)
     if plot:
         try:
             from jaxwalk.plot import plot_dataset
@@ -168,7 +131,44 @@ def run_sweep(
     return target
 
 
-def _compute_blocks(config, analyse, options, store, keys, n_v: int, starts, *, progress: bool, dask, command: str) -> None:
+def _prepare(config, out_dir, *, max_points: int, overwrite: bool, chunk_size: int | None):
+    """``(config, model, target, options)``: the config read and checked, the output path
+    checked, the analysis options with ``chunk_size``. Raises ConfigError."""
+    if not isinstance(config, SweepConfig):
+        config = load_config(config, max_points=max_points)
+    model = get_model(config.model)
+    target = check_output(out_dir, config.name, overwrite=overwrite)
+    options = analysis_options(config)
+    if chunk_size is not None:
+        options = dataclasses.replace(options, chunk_size=chunk_size)
+    return config, model, target, options
+
+
+def _plan_store(config, model, target, options, *, command: str = "", overwrite: bool = False):
+    from jaxwalk.sweep.store import ChunkStore
+
+    return ChunkStore.plan(config, model, target, chunk_size=options.chunk_size, options=_as_attribute(options),
+                           command=command, overwrite=overwrite)
+
+
+def _finish(config, model, store, options, seeds) -> None:
+    """After every block: the seed lines' attributes, the analyses of the whole grid
+    (:attr:`~jaxwalk.analyses.base.Analysis.whole_grid`), then the store renamed into place."""
+    if seeds is not None:
+        from jaxwalk.seedline import dataset_attributes
+
+        store.set_attributes(dataset_attributes(seeds))
+    whole = [(a, resolved) for a, resolved in analyses.active(config) if a.whole_grid]
+    if whole:  # from the whole lines written
+        from jaxwalk.grid import parameter_grid
+
+        params = parameter_grid(model, config.fixed, config.grid)
+        for analysis, _ in whole:
+            analysis.finish(config, model, store.store, options, params)
+    store.finish()
+
+
+def _compute_blocks(config, analyse, options, store, starts, *, progress: bool, dask, command: str) -> None:
     """Compute and write every block ``store`` still needs, with a progress bar; say
     first when an unfinished run is continued, and on Ctrl-C what was kept and how
     to continue (:class:`SweepInterrupted`); record this machine's speed (:mod:`timings`)."""
@@ -176,8 +176,9 @@ def _compute_blocks(config, analyse, options, store, keys, n_v: int, starts, *, 
 
     from jaxwalk.sweep.chunks import chunk_results
 
-    step_down = config.h_max is not None
-    attractor_keys = None if config.attractors is None else attractors.result_keys(config.attractors, n_v)
+    act = analyses.active(config)
+    n_v = len(get_model(config.model).section_names)
+    keys = [o.name for o in analyses.outputs(act)]
     started, traced_before, points_before = time.perf_counter(), program_cache_traces(), store.points_done
     if store.done:
         print(
@@ -190,10 +191,7 @@ def _compute_blocks(config, analyse, options, store, keys, n_v: int, starts, *, 
             with bar:
                 for index, results in finished:  # each block checked and on disk as soon as it is done
                     shape = tuple(r.stop - r.start for r in store.region(index))
-                    checked = check_results(results, shape, n_v, stability=config.stability, step_down=step_down)
-                    if attractor_keys is not None:
-                        checked.update(attractors.check(results, checked["status"], attractor_keys))
-                    store.write(index, {**checked, **_global_check(results, checked["status"], config)})
+                    store.write(index, analyses.check_block(results, shape, n_v, act))
                     bar.update(store.points_in(index))
     except KeyboardInterrupt:
         raise SweepInterrupted(interrupted_message(store, config.n_points, command)) from None
@@ -218,18 +216,10 @@ def dry_run(config: SweepConfig, out_dir, *, chunk_size: int | None = None, over
     """
     from jaxwalk.sweep import timings
     from jaxwalk.sweep.config import _human_bytes
-    from jaxwalk.sweep.store import ChunkStore
 
-    model = get_model(config.model)
-    target = check_output(out_dir, config.name, overwrite=overwrite)
-    options = analysis_options(config)
-    if chunk_size is not None:
-        options = dataclasses.replace(options, chunk_size=chunk_size)
-    keys = {**RESULT_KEYS, **({k: False for k in STEP_DOWN_KEYS} if config.h_max is not None else {})}
-    store = ChunkStore.plan(
-        config, model, target, chunk_size=options.chunk_size, options=_as_attribute(options), result_keys=keys,
-        overwrite=overwrite,
-    )
+    config, model, target, options = _prepare(config, out_dir, max_points=DEFAULT_MAX_POINTS, overwrite=overwrite,
+                                              chunk_size=chunk_size)
+    store = _plan_store(config, model, target, options, overwrite=overwrite)
     shape = " x ".join(map(str, config.shape))
     todo = config.n_points - store.points_done
     lines = [
@@ -260,45 +250,35 @@ def interrupted_message(store, n_points: int, command: str) -> str:
 
 def analysis_options(config: SweepConfig):
     """The :class:`jaxwalk.grid.AnalysisOptions` of ``config``: its defaults, updated
-    by the solver settings ``[analysis]`` gives, with ``step_down`` set from
-    ``[analysis] h_max`` when it is on."""
+    by the solver settings ``[analysis]`` gives, with the grid options of every
+    analysis that is on (:meth:`jaxwalk.analyses.base.Analysis.grid_options`: its
+    own field, or ``more``)."""
     from jaxwalk.grid import AnalysisOptions
 
     base = AnalysisOptions()
     solver = dataclasses.replace(base.solver, **{_SOLVER_FIELDS[k]: v for k, v in config.solver.items() if k in _SOLVER_FIELDS})
     newton = dataclasses.replace(base.newton, **{_NEWTON_FIELDS[k]: v for k, v in config.solver.items() if k in _NEWTON_FIELDS})
-    step_down = None
-    if config.h_max is not None:
-        from jaxwalk.stepdown import StepDownOptions
-
-        step_down = StepDownOptions(dh=config.h_max["step"], count=config.h_max["count"], n_steps=config.h_max["steps"])
-    options = dataclasses.replace(base, solver=solver, newton=newton, step_down=step_down,
-                                  attractors=attractors.options(config.attractors))
-    if config.global_stability:  # [analysis] gait_sensitivity / mfpt (jaxwalk.global_stability)
-        from jaxwalk.global_stability.options import global_options
-
-        options = dataclasses.replace(options, global_stability=global_options(config.global_stability))
-    return options
-
-
-def _global_keys(config: SweepConfig) -> dict[str, bool]:
-    if not config.global_stability:
-        return {}
-    from jaxwalk.global_stability.sweep import result_keys
-
-    return result_keys(config.global_stability)
-
-
-def _global_check(results, status, config: SweepConfig) -> dict[str, np.ndarray]:
-    if not config.global_stability:
-        return {}
-    from jaxwalk.global_stability.sweep import check
-
-    return check(results, status, config.global_stability)
+    fields, more = {}, []
+    for analysis, resolved in analyses.active(config):
+        grid_options = analysis.grid_options(resolved) if analysis.name != "gait" else None
+        if grid_options is None:
+            continue
+        if analysis.options_field is not None:
+            fields[analysis.options_field] = grid_options
+        else:
+            more.append((analysis.name, grid_options))
+    return dataclasses.replace(base, solver=solver, newton=newton, **fields, more=tuple(more))
 
 
 def _as_attribute(options) -> dict:
-    return dataclasses.asdict(options) if dataclasses.is_dataclass(options) else dict(options)
+    """The options as recorded in a dataset (and in a partial run's fingerprint):
+    every field, the analyses of ``more`` under their names, and only when on
+    (so adding an analysis changes no earlier sweep's record)."""
+    if not dataclasses.is_dataclass(options):
+        return dict(options)
+    record = dataclasses.asdict(options)
+    record.update(dict(record.pop("more", ())))
+    return record
 
 
 def check_output(out_dir: str | os.PathLike, name: str, *, overwrite: bool = False) -> Path:
@@ -334,7 +314,8 @@ def check_results(
     stability: bool = True,
     step_down: bool = False,
 ) -> dict[str, np.ndarray]:
-    """Check the analysis output against the contract and make its failures explicit.
+    """Check the gait's (and with ``step_down`` the step-down test's) output against
+    the contract and make its failures explicit (:func:`jaxwalk.analyses.check_block`).
 
     Shapes and status codes must match (``ValueError`` otherwise). Then: where
     ``status != 0`` every float is set to NaN; where ``status == 0`` but a number
@@ -355,54 +336,5 @@ def check_results(
         the rest float64; with ``step_down`` also step_down_status int8, h_max
         and h_failed float64.
     """
-    keys = list(RESULT_KEYS) + (list(STEP_DOWN_KEYS) if step_down else [])
-    missing = [k for k in keys if k not in results]
-    if missing:
-        raise ValueError(f"the analysis returned no {', '.join(missing)}")
-    out = {}
-    for key in keys:
-        value = np.asarray(results[key])
-        expected = shape + ((n_v,) if RESULT_KEYS.get(key, False) else ())
-        if value.shape != expected:
-            raise ValueError(f"the analysis returned '{key}' of shape {value.shape}, expected {expected}")
-        out[key] = value
-    for key in ("status", "step_down_status") if step_down else ("status",):
-        codes = out[key]
-        if not np.issubdtype(codes.dtype, np.integer):
-            raise ValueError(f"the analysis returned '{key}' of dtype {codes.dtype}, expected an integer type")
-        bad = ~np.isin(codes, _VALID_CODES)
-        if bad.any():
-            raise ValueError(f"the analysis returned {key} codes {sorted(set(codes[bad].tolist()))}, not dataset statuses")
-    status = out["status"].astype(np.int8)
-    if step_down:
-        for key in ("h_max", "h_failed"):
-            out[key] = out[key].astype(np.float64)
-        if (out["h_max"] < 0).any():
-            raise ValueError("the analysis returned a negative 'h_max'")
-    out["eigenvalues"] = out["eigenvalues"].astype(np.complex128)
-    for key in ("lambda_max", "fixed_point", "period", "step_length", "speed", "work", "cost_of_transport"):
-        out[key] = out[key].astype(np.float64)
-    out["newton_iterations"] = out["newton_iterations"].astype(np.int32)
-
-    required = ["fixed_point", "period", "step_length", "speed", "work", "cost_of_transport"] + (["lambda_max", "eigenvalues"] if stability else [])
-    required += ["h_max"] if step_down else []
-    finite = np.ones(shape, bool)
-    for key in required:
-        ok = np.isfinite(out[key])
-        finite &= ok.all(axis=-1) if RESULT_KEYS.get(key, False) else ok
-    status = np.where((status == Status.OK) & ~finite, np.int8(Status.NONFINITE), status).astype(np.int8)
-    if not stability:  # not asked for: absent, whatever the analysis computed
-        out["lambda_max"] = np.full(shape, np.nan)
-        out["eigenvalues"] = np.full(shape + (n_v,), complex(np.nan, np.nan))
-    failed = status != Status.OK
-    for key in _FLOATS:
-        mask = failed[..., None] if RESULT_KEYS[key] else failed
-        nan = complex(np.nan, np.nan) if key == "eigenvalues" else np.nan
-        out[key] = np.where(mask, nan, out[key])
-    out["status"] = status
-    if step_down:  # no gait, no step-down: its status is the gait's
-        out["h_max"] = np.where(failed, np.nan, out["h_max"])
-        drop_status = np.where(failed, status, out["step_down_status"]).astype(np.int8)
-        out["step_down_status"] = drop_status
-        out["h_failed"] = np.where(failed | (drop_status == Status.OK), np.nan, out["h_failed"])
-    return out
+    settings = {"gait": stability, **({step_down_analysis.name: {}} if step_down else {})}
+    return analyses.check_block(results, shape, n_v, analyses.active_settings(settings))

@@ -42,8 +42,8 @@ from typing import Iterator, Mapping
 
 import numpy as np
 
+from jaxwalk import analyses
 from jaxwalk.status import Status
-from jaxwalk.sweep import attractors
 from jaxwalk.sweep.config import ConfigError, GridAxis, SweepConfig, _human_bytes
 from jaxwalk.walker import Walker
 
@@ -59,31 +59,6 @@ _METADATA_BYTES = 4096
 def partial_path(target: Path) -> Path:
     """``DIR/.<name>.zarr.partial`` for ``target = DIR/<name>.zarr``."""
     return target.parent / f".{target.name}{PARTIAL_SUFFIX}"
-
-
-#: Status variables: their zarr fill value is ``NOT_COMPUTED``, so a chunk never
-#: written reads as "not computed", never as "ok" with NaN numbers.
-STATUS_KEYS = ("status", "step_down_status", "attractor_status")
-
-
-def _template_results(keys: Mapping[str, bool], shape: tuple[int, ...], n_v: int) -> dict[str, np.ndarray]:
-    """Results of the grid's shape as zero-stride views of one fill value (no memory)."""
-    out = {}
-    for key, trailing in keys.items():
-        # trailing: True (one section-sized axis), False (none) or a shape (the attractor's arrays).
-        full = shape + (tuple(trailing) if isinstance(trailing, tuple) else (n_v,) if trailing else ())
-        if key in STATUS_KEYS:
-            value = np.int8(Status.NOT_COMPUTED)
-        elif key.startswith("attractor_"):
-            value = attractors.template_value(key)
-        elif key == "newton_iterations":
-            value = np.int32(0)
-        elif key == "eigenvalues":
-            value = np.complex128(complex(np.nan, np.nan))
-        else:
-            value = np.float64(np.nan)
-        out[key] = np.broadcast_to(value, full)
-    return out
 
 
 @dataclasses.dataclass
@@ -115,7 +90,6 @@ class ChunkStore:
     options: Mapping
     overwrite: bool
     done: set[int]
-    result_keys: dict[str, bool]
     _group: object = None
 
     @property
@@ -137,7 +111,6 @@ class ChunkStore:
         *,
         chunk_size: int,
         options: Mapping,
-        result_keys: Mapping[str, bool],
         command: str = "",
         overwrite: bool = False,
     ) -> "ChunkStore":
@@ -148,9 +121,6 @@ class ChunkStore:
             target: ``DIR/<name>.zarr`` (already checked by ``runner.check_output``).
             chunk_size: points per block (``AnalysisOptions.chunk_size``).
             options: every analysis setting, JSON-able (recorded, and part of the fingerprint).
-            result_keys: the checked results' keys, with whether they carry a
-                section-sized trailing axis (``runner.RESULT_KEYS`` and, with
-                h_max, the step-down keys).
             command: the command line, recorded in the dataset.
             overwrite: a partial run of a different sweep is discarded instead of refused.
 
@@ -174,8 +144,7 @@ class ChunkStore:
         }
         fingerprint = {k: hashlib.sha256(json.dumps(v, sort_keys=True, default=str).encode()).hexdigest() for k, v in parts.items()}
         self = cls(
-            config, model, Path(target), shape, chunks, n_chunks, fingerprint, command, dict(options), overwrite,
-            set(), dict(result_keys),
+            config, model, Path(target), shape, chunks, n_chunks, fingerprint, command, dict(options), overwrite, set(),
         )
         self._check_partial()
         self._check_disk()
@@ -210,14 +179,12 @@ class ChunkStore:
         return {int(n) for n in names if n.isdigit() and int(n) < self.n_chunks}
 
     def _variable_layout(self):
-        """The template dataset (zero-stride views) and each data variable's chunk shape."""
+        """The template dataset (zero-stride views of each output's fill value,
+        :func:`jaxwalk.analyses.template`) and each data variable's chunk shape."""
         from jaxwalk.sweep.dataset import build_dataset
 
-        n_v = len(self.model.section_names)
-        ds = build_dataset(
-            self.config, self.model, _template_results(self.result_keys, self.shape, n_v),
-            command=self.command, options=self.options,
-        )
+        template = analyses.template(self.config, len(self.model.section_names))
+        ds = build_dataset(self.config, self.model, template, command=self.command, options=self.options)
         chunks = {name: self.chunks + var.shape[len(self.shape) :] for name, var in ds.data_vars.items()}
         return ds, chunks
 
@@ -316,11 +283,14 @@ class ChunkStore:
             mini.to_zarr(memory, mode="w-", zarr_format=3, consolidated=False)
             source = zarr.open_group(memory, mode="r")
             group = zarr.open_group(store, mode="r+", zarr_format=3)
+            # Statuses are NOT_COMPUTED where never written: an unwritten chunk never reads as "ok".
+            statuses = {o.name for o in analyses.outputs(analyses.active(self.config)) if o.flags}
             for name, var in ds.data_vars.items():
                 src = source[name]
                 zarr.create_array(
                     group.store, name=name, shape=var.shape, chunks=chunks[name], dtype=src.dtype,
-                    fill_value=np.int8(Status.NOT_COMPUTED) if name in STATUS_KEYS else src.fill_value, attributes=dict(src.attrs), dimension_names=src.metadata.dimension_names,
+                    fill_value=np.int8(Status.NOT_COMPUTED) if name in statuses else src.fill_value,
+                    attributes=dict(src.attrs), dimension_names=src.metadata.dimension_names,
                     compressors=src.compressors, serializer=src.serializer, filters=src.filters,
                 )
             (tmp / DONE_DIR).mkdir()

@@ -1,7 +1,7 @@
 """How long sweeps of a model took, kept in the cache directory, for ``jaxwalk sweep --dry-run``.
 
-One record per kind of sweep (model, stability, ``h_max``, continuation, seed
-lines): the seconds per grid point of the last run that compiled nothing, and
+One record per kind of sweep (model, stability, continuation, seed lines, the
+analyses beside the gait): the seconds per grid point of the last run that compiled nothing, and
 of the last that did (its programs compiled in it). A dry run scales the one
 that applies to the new grid's size. Best effort: an unreadable or unwritable
 file means no estimate, never an error.
@@ -20,10 +20,12 @@ FILE = "sweep-timings.json"
 
 
 def kind(config) -> str:
-    """What a sweep's cost per point depends on, beyond its size."""
+    """What a sweep's cost per point depends on, beyond its size: the model, the
+    gait's settings, and each analysis beside it that is on (``h_max`` always named)."""
+    others = "".join(f"|{name}" for name in config.analyses if name != "h_max")
     return (
         f"{config.model}|stability={int(config.stability)}|h_max={config.h_max is not None}"
-        f"|continuation={config.continuation is not None}|seed={config.seed_axis is not None}"
+        f"|continuation={config.continuation is not None}|seed={config.seed_axis is not None}{others}"
     )
 
 

@@ -1,4 +1,4 @@
-"""The bifurcation table of a sweep (``[analysis] bifurcations``).
+"""``[analysis] bifurcations``: the bifurcation table of a sweep's continuation lines.
 
 After every block is written, the period-1 gaits of each continuation line
 are read back from the store and :func:`jaxwalk.bifurcation.locate` finds
@@ -23,15 +23,17 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-import xarray as xr
 
+from jaxwalk.analyses.base import Analysis
 from jaxwalk.status import flag_attributes
 
 
-def table(config, model, store: Path, options) -> xr.Dataset:
-    """The bifurcation table of the grid written in ``store`` (a zarr group)."""
+def table(config, model, store: Path, options, params):
+    """The bifurcation table of the grid written in ``store`` (a zarr group);
+    ``params``: every parameter over the grid (:func:`jaxwalk.grid.parameter_grid`)."""
+    import xarray as xr
+
     from jaxwalk.bifurcation import KIND_MEANINGS, Kind, locate
-    from jaxwalk.grid import parameter_grid
 
     ds = xr.open_zarr(store, consolidated=False)
     axis = config.continuation
@@ -42,7 +44,7 @@ def table(config, model, store: Path, options) -> xr.Dataset:
     status = move(ds["status"].values).reshape(-1, n)
     v = move(ds["fixed_point"].values).reshape(-1, n, len(model.section_names))
     eig = move(ds["eigenvalues_real"].values + 1j * ds["eigenvalues_imag"].values).reshape(v.shape)
-    lines = {name: move(values).reshape(-1, n) for name, values in parameter_grid(model, config.fixed, config.grid).items()}
+    lines = {name: move(values).reshape(-1, n) for name, values in params.items()}
     found = locate(model, lines, axis, status, np.nan_to_num(v), np.nan_to_num(eig), solver=options.solver, newton=options.newton)
     where = np.unravel_index(found.line, tuple(config.shape[config.dims.index(d)] for d in others)) if others else ()
     dim = "bifurcation"
@@ -71,14 +73,40 @@ def table(config, model, store: Path, options) -> xr.Dataset:
     return xr.Dataset(data)
 
 
-def write_table(config, model, store: Path, options) -> None:
+def write_table(config, model, store: Path, options, params) -> None:
     """Compute the table and add it to the store (replacing one written before)."""
     import zarr
 
-    found = table(config, model, store, options)
+    found = table(config, model, store, options, params)
     # xarray's append sets the group's attributes to the appended dataset's:
     # keep the sweep's global attributes (its config, units, history, ...).
     attrs = dict(zarr.open_group(store, mode="r", zarr_format=3).attrs)
     found.attrs.update(attrs)
     found.to_zarr(store, mode="a", zarr_format=3, consolidated=False)
     zarr.open_group(store, mode="r+", zarr_format=3).attrs.update(attrs)
+
+
+class Bifurcations(Analysis):
+    name = "bifurcations"
+    keys = ("bifurcations",)
+    order = 40
+    off = False
+    whole_grid = True
+
+    def parse(self, table, fail, *, continuation) -> bool:
+        """``true`` needs a continuation axis (the lines it searches)."""
+        value = table.get("bifurcations", False)
+        if not isinstance(value, bool):
+            raise fail(f"[analysis]: bifurcations must be true or false, got {value!r}")
+        if value and continuation is None:
+            raise fail("[analysis]: bifurcations = true needs a continuation axis (continuation is off)")
+        return value
+
+    def grid_options(self, resolved):
+        return None  # nothing per block: the table is made from the whole lines written
+
+    def finish(self, config, model, store, options, params) -> None:
+        write_table(config, model, store, options, params)
+
+
+ANALYSIS = Bifurcations()

@@ -1,0 +1,193 @@
+"""What an analysis beside the gait declares: its config keys, its outputs, its program.
+
+A plug-in is one module of :mod:`jaxwalk.analyses` holding ``ANALYSIS``, an
+instance of a subclass of :class:`Analysis`. Everything a sweep does with it
+goes through these methods: the config parser (:meth:`parse`,
+:meth:`to_dict`), the grid (:meth:`grid_options`, :meth:`compute`), the
+runner's checks (:meth:`finalise`), the store and the dataset
+(:meth:`outputs`, :meth:`sizes`, :meth:`variables`) and, for analyses of the
+whole grid, the end of a run (:meth:`finish`).
+
+Plug-in modules import nothing heavy at module level (a config is checked
+without JAX) and never import :mod:`jaxwalk.grid` or :mod:`jaxwalk.sweep`
+(those import the registry).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+from typing import Any, Callable, Mapping
+
+import numpy as np
+
+from jaxwalk import outputs as schema
+from jaxwalk.outputs import Output
+
+
+def did_you_mean(key: str, choices) -> str:
+    """``" (did you mean 'step'?)"`` for the closest of ``choices``, or ``""``."""
+    close = difflib.get_close_matches(str(key), list(choices), n=1)
+    return f" (did you mean '{close[0]}'?)" if close else ""
+
+
+def switch_table(table: Mapping[str, Any], key: str, allowed, fail, example: str) -> Mapping[str, Any] | None:
+    """``[analysis] <key>`` written as ``false``/absent (``None``: off), ``true`` (``{}``:
+    the defaults) or a table whose keys are among ``allowed`` (``example``: its
+    form in the error message, ``"{ step = .., count = .. }"``)."""
+    where = f"[analysis] {key}"
+    value = table.get(key, False)
+    if value is False:
+        return None
+    if value is not True and not isinstance(value, Mapping):
+        raise fail(f"{where} must be true, false or a table {example}, got {value!r}")
+    table = {} if value is True else value
+    for name in table:
+        if name not in allowed:
+            raise fail(f"{where}: unknown key '{name}'{did_you_mean(name, allowed)} (allowed: {', '.join(allowed)})")
+    return table
+
+
+@dataclasses.dataclass(frozen=True)
+class Block:
+    """What a grid block's analyses start from (:func:`jaxwalk.grid.analyse_chunk`).
+
+    Attributes:
+        model: the walker.
+        params: every parameter as an array of the block's shape ``S``.
+        gaits: the block's :class:`jaxwalk.gait.Gait` (leaves ``S + ...``).
+        results: the outputs so far (the gait's, then each earlier analysis's), ``S + ...``.
+        options: the :class:`jaxwalk.grid.AnalysisOptions`.
+        sub_batch: configurations advanced together in one ``lax.map`` step
+            (:func:`jaxwalk.grid.sub_batch_size`).
+        run: ``run(program, rows)``: a jitted program over flat rows, in chunks on
+            every worker thread (:func:`jaxwalk.batching.run_chunks` with the block's chunk size).
+    """
+
+    model: Any
+    params: Mapping[str, np.ndarray]
+    gaits: Any
+    results: Mapping[str, np.ndarray]
+    options: Any
+    sub_batch: int
+    run: Callable
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return self.results["status"].shape
+
+    def rows_at_gaits(self) -> dict[str, np.ndarray]:
+        """One row per grid point: every parameter, and ``__v_star__`` ``(n_v,)`` its
+        fixed point (NaN where there is no gait)."""
+        v = np.asarray(self.gaits.v)
+        rows = {k: np.asarray(x).reshape(-1) for k, x in self.params.items()}
+        rows["__v_star__"] = v.reshape(-1, v.shape[-1])
+        return rows
+
+
+def row_program(one: Callable, sub_batch: int, kind: str, model, *settings):
+    """``jit``: rows -> ``one(row)`` for every row, ``sub_batch`` rows advancing together
+    (:func:`jaxwalk.batching.in_sub_batches`), named for the disk cache
+    (:func:`jaxwalk.program_cache.register`: ``kind``, the model, the settings it closes over)."""
+    import jax
+
+    from jaxwalk import program_cache
+    from jaxwalk.batching import in_sub_batches
+
+    program = jax.jit(lambda rows: in_sub_batches(one, dict(rows), sub_batch))
+    program_cache.register(program, kind, model, *settings)
+    return program
+
+
+class Analysis:
+    """An analysis beside the gait (subclass it; override what differs).
+
+    Attributes:
+        name: its name in the resolved config (``config.analyses``) and in
+            :class:`jaxwalk.grid.AnalysisOptions`.
+        keys: the ``[analysis]`` keys it reads.
+        order: where it runs and is written among the analyses (ascending).
+        off: its setting when it is off (``config.<name>`` then).
+        options_field: the ``AnalysisOptions`` field holding its grid options;
+            ``None``: they go in ``AnalysisOptions.more`` under :attr:`name` (and
+            are recorded in a dataset only when the analysis is on).
+        status_of_outputs: the status variable at whose ``OK`` points its
+            ``finite_where_ok`` outputs must be finite.
+        whole_grid: it runs once after every block is written (:meth:`finish`).
+    """
+
+    name: str = ""
+    keys: tuple[str, ...] = ()
+    order: int = 100
+    off: Any = None
+    options_field: str | None = None
+    status_of_outputs: str = "status"
+    whole_grid: bool = False
+
+    # ------------------------------------------------------------ config
+
+    def parse(self, table: Mapping[str, Any], fail, *, continuation: str | None) -> Any:
+        """The resolved setting from ``[analysis]`` (JSON-ready), or :attr:`off`.
+        ``fail(message)`` returns the exception to raise."""
+        raise NotImplementedError
+
+    def to_dict(self, resolved: Any) -> dict[str, Any]:
+        """Its entries in the resolved config's ``[analysis]`` table (itself a valid config)."""
+        return {} if resolved == self.off else {self.name: resolved}
+
+    def fullest(self) -> Any:
+        """A setting under which :meth:`outputs` lists every output it can write (plots, docs)."""
+        return True
+
+    def check_model(self, resolved: Any, model, fail) -> None:
+        """Refuse a model the analysis cannot run on (``fail(message)``); default: any."""
+
+    # ------------------------------------------------------------ the grid
+
+    def grid_options(self, resolved: Any) -> Any:
+        """What :meth:`compute` needs of the settings (hashable), or ``None`` when off."""
+        return None if resolved == self.off else resolved
+
+    def options_of(self, options) -> Any:
+        """Its grid options in an ``AnalysisOptions`` (``None``: not asked for)."""
+        if self.options_field is not None:
+            return getattr(options, self.options_field)
+        return dict(options.more).get(self.name)
+
+    def compute(self, block: Block) -> dict[str, np.ndarray]:
+        """Its outputs on a block whose gaits are known: arrays of ``S`` plus their trailing shape."""
+        return {}
+
+    # ------------------------------------------------------------ results
+
+    def outputs(self, resolved: Any) -> tuple[Output, ...]:
+        """Its per-point outputs with these settings."""
+        return ()
+
+    def sizes(self, resolved: Any, n_v: int) -> dict[str, int]:
+        """Sizes of the outputs' trailing axes."""
+        return {"section": n_v, "eigen": n_v}
+
+    def finalise(self, arrays: Mapping[str, np.ndarray], status: np.ndarray, resolved: Any) -> dict[str, np.ndarray]:
+        """Its checked outputs, given every output's checked arrays (:func:`jaxwalk.outputs.take`)
+        and the gait's final ``status``: by default every number is missing where
+        there is no gait."""
+        return schema.blank(arrays, self.outputs(resolved), status != 0)
+
+    def variables(self, dims: tuple[str, ...], results: Mapping[str, np.ndarray], resolved: Any,
+                  units: Mapping[str, str]) -> dict[str, tuple]:
+        """Its dataset variables (``{name: (dims, values, attrs)}``)."""
+        return schema.variables(self.outputs(resolved), dims, results, resolved, units)
+
+    def gradient(self, quantity: str, model, names: tuple[str, ...], solver, newton) -> Callable:
+        """``(params, v0) -> (value, d value / d names)`` of one of its ``differentiable``
+        outputs at one configuration (``v0``: a start for the gait search), for
+        :mod:`jaxwalk.optimize`."""
+        raise NotImplementedError(f"{self.name} declares no gradient of {quantity}")
+
+    def finish(self, config, model, store, options, params: Mapping[str, np.ndarray]) -> None:
+        """After every block is written: an analysis of the whole grid adds its
+        results to ``store`` (a zarr group path); ``params`` as :func:`jaxwalk.grid.parameter_grid`."""
+
+    def __repr__(self) -> str:
+        return f"<analysis {self.name}>"

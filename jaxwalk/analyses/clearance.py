@@ -1,0 +1,71 @@
+"""``[analysis] min_clearance``: the lowest swing-foot clearance of each gait's step.
+
+Models whose context tracks it (a ``min_clearance`` entry, kept exact by
+events at the swing foot's height extrema: the flat-foot walker,
+:mod:`jaxwalk.models.flatfoot.clearance`) report it for any step; this
+plug-in walks one step from each gait's fixed point and writes:
+
+* ``min_clearance`` ``S``: the lowest height of the swing heel or toe above
+  the ground at an interior minimum of the step, model length units (negative
+  below it); NaN where no gait was found or the step passes no minimum.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+
+from jaxwalk.analyses.base import Analysis, Block, row_program
+from jaxwalk.outputs import Output
+
+OUTPUT = Output(
+    "min_clearance", "float64",
+    "lowest height of the swing foot's heel or toe above the ground over the gait's step (negative: below it)",
+    "minimum swing clearance", units="{length}", label="min. swing clearance",
+    meaning="lowest swing-foot height above the ground in a step",
+)
+
+
+@functools.lru_cache(maxsize=None)
+def _program(model, solver, sub_batch: int):
+    from jaxwalk.models.flatfoot.clearance import min_clearance
+    from jaxwalk.step import step_map
+
+    def one(p):
+        v = p.pop("__v_star__")
+        _, res = step_map(model, v, p, solver)
+        return min_clearance(res.ctx)
+
+    return row_program(one, sub_batch, "min_clearance", model, solver)
+
+
+class Clearance(Analysis):
+    name = "min_clearance"
+    keys = ("min_clearance",)
+    order = 50
+    off = False
+
+    def parse(self, table, fail, *, continuation) -> bool:
+        value = table.get("min_clearance", False)
+        if not isinstance(value, bool):
+            raise fail(f"[analysis]: min_clearance must be true or false, got {value!r}")
+        return value
+
+    def check_model(self, resolved, model, fail) -> None:
+        if resolved and "min_clearance" not in model.context:
+            raise fail(f"[analysis]: min_clearance = true: the {model.name} model does not track its swing foot's "
+                       "clearance (no 'min_clearance' context entry; the flatfoot model does)")
+
+    def grid_options(self, resolved):
+        return True if resolved else None
+
+    def compute(self, block: Block) -> dict[str, np.ndarray]:
+        program = _program(block.model, block.options.solver, block.sub_batch)
+        return {"min_clearance": np.asarray(block.run(program, block.rows_at_gaits())).reshape(block.shape)}
+
+    def outputs(self, resolved=True) -> tuple[Output, ...]:
+        return (OUTPUT,)
+
+
+ANALYSIS = Clearance()

@@ -1,0 +1,162 @@
+"""``[analysis] gait_sensitivity`` and ``mfpt``: the global-stability measures of :mod:`jaxwalk.global_stability`.
+
+Outputs (grid shape ``S``, NaN where no gait was found, ``status != 0``):
+
+* ``gait_sensitivity_norm``: :mod:`~jaxwalk.global_stability.sensitivity_norm`;
+  ``inf`` where the gait is unstable (``lambda_max >= 1``);
+* ``mfpt``, ``mfpt_error``, ``mfpt_quasi_stationary``, ``mfpt_escaped``:
+  :mod:`~jaxwalk.global_stability.mfpt`; ``mfpt`` is ``inf`` for ``sigma = 0``.
+
+The settings are checked by :mod:`jaxwalk.global_stability.options`.
+"""
+
+from __future__ import annotations
+
+import functools
+from typing import Any, Mapping
+
+import numpy as np
+
+from jaxwalk.analyses.base import Analysis, Block, row_program
+from jaxwalk.outputs import Output
+
+MFPT_KEYS = ("mfpt", "mfpt_error", "mfpt_quasi_stationary", "mfpt_escaped")
+
+
+def _gsn_units(units: Mapping[str, str]) -> str:
+    return "1" if (units["length"], units["time"]) == ("1", "1") else f"indicator units per {units['length']}"
+
+
+def _gsn_attrs(resolved: Mapping[str, Any], units: Mapping[str, str]) -> dict[str, Any]:
+    return {
+        "indicators": " ".join(resolved["gait_sensitivity"]["indicators"]),
+        "comment": (
+            "Hobbelen & Wisse (2007): sqrt(D^2 + sum_k |C J^k B|^2) for x+ = J x + B e, y = C x + D e, "
+            "e the drop of the ground at a step's touchdown, y the indicators (model units, unscaled); "
+            "exact forward-mode Jacobians, Lyapunov equation by Smith's doubling; inf where lambda_max >= 1"
+        ),
+    }
+
+
+def _mfpt_attrs(resolved: Mapping[str, Any], units: Mapping[str, str]) -> dict[str, Any]:
+    m = resolved["mfpt"]
+    return {
+        "comment": (
+            f"every step's ground height change i.i.d. N(0, {m['sigma']:g}^2) {units['length']}; discretised "
+            "step-to-step Markov chain with an absorbing failure state (jaxwalk.global_stability.mfpt); inf for sigma = 0"
+        ),
+        **{f"mfpt_{k}": v for k, v in m.items()},
+    }
+
+
+GSN = Output(
+    "gait_sensitivity_norm", "float64",
+    "gait sensitivity norm: H2 norm of the step-to-step response of the gait indicators to a floor-height disturbance",
+    units=_gsn_units, label="gait sensitivity norm", meaning="response of step time and length to floor height (H2 norm)",
+    differentiable=True, plot=30, attrs=_gsn_attrs,
+)
+MFPT = (
+    Output("mfpt", "float64", "mean first-passage time: expected completed steps before a failure, from the gait",
+           units="steps", label="MFPT", meaning="mean steps before a fall on random terrain", plot=40, attrs=_mfpt_attrs),
+    Output("mfpt_error", "float64",
+           "discretisation error estimate of mfpt: |mfpt - mfpt on a mesh and terrain grid half as fine|", units="steps"),
+    Output("mfpt_quasi_stationary", "float64", "1 / (1 - lambda_d), lambda_d the chain's dominant eigenvalue (Byl & Tedrake)",
+           units="steps"),
+    Output("mfpt_escaped", "float64", "fraction of the chain's transition mass that left the mesh box (moved onto its surface)"),
+)
+
+
+@functools.lru_cache(maxsize=None)
+def _gsn_program(model, indicators: tuple[str, ...], solver, sub_batch: int):
+    """Rows (parameters and ``__v__``) -> the gait sensitivity norm; one compiled
+    shape for every grid (:func:`jaxwalk.batching.run_chunks`)."""
+    from jaxwalk.global_stability.sensitivity_norm import gait_sensitivity_norm
+
+    def one(row):
+        p = dict(row)
+        v = p.pop("__v__")
+        return gait_sensitivity_norm(model, p, v, indicators, solver)
+
+    return row_program(one, sub_batch, "gait_sensitivity_norm", model, indicators, solver)
+
+
+def grid_outputs(model, params: Mapping[str, np.ndarray], gaits, status: np.ndarray, solver, options, run=None,
+                 sub_batch: int = 64) -> dict[str, np.ndarray]:
+    """The outputs ``options`` (a :class:`~jaxwalk.global_stability.options.GlobalOptions`)
+    asks for, shaped like ``status`` (``S``).
+
+    Args:
+        params: every parameter as an ``S`` array; ``gaits.v``: ``S + (n_v,)`` fixed points.
+        run: ``run(program, rows)``, the block's row runner (:class:`Block`; default:
+            :func:`jaxwalk.batching.run_chunks` in calls of 256 rows).
+        sub_batch: rows advancing together in the norm's program.
+    """
+    import jax.numpy as jnp
+
+    shape = status.shape
+    rows = {k: jnp.asarray(np.asarray(v).reshape(-1)) for k, v in params.items()}
+    v = np.asarray(gaits.v).reshape(-1, np.asarray(gaits.v).shape[-1])
+    ok = status.reshape(-1) == 0
+    out = {}
+    if options.gait_sensitivity is not None:
+        if run is None:
+            from jaxwalk.batching import run_chunks
+
+            run = lambda program, rows_: run_chunks(program, rows_, 256, None)  # noqa: E731
+        program = _gsn_program(model, tuple(options.gait_sensitivity), solver, sub_batch)
+        gsn = np.asarray(run(program, {**{k: np.asarray(x) for k, x in rows.items()}, "__v__": np.where(ok[:, None], v, 0.0)}))
+        out["gait_sensitivity_norm"] = np.where(ok, gsn, np.nan).reshape(shape)
+    if options.mfpt is not None:
+        from jaxwalk.global_stability.mfpt import MFPTOptions, mfpt
+
+        mo = MFPTOptions(**dict(options.mfpt))
+        values = np.full((len(ok), 4), np.nan)
+        for i in np.flatnonzero(ok):
+            r = mfpt(model, {k: float(x[i]) for k, x in rows.items()}, v[i], mo, solver)
+            values[i] = (r.mfpt, r.error, r.quasi_stationary, r.escaped)
+        for j, key in enumerate(MFPT_KEYS):
+            out[key] = values[:, j].reshape(shape)
+    return out
+
+
+class GlobalStability(Analysis):
+    name = "global_stability"
+    keys = ("gait_sensitivity", "mfpt")
+    order = 30
+    off: Any = {}
+    options_field = "global_stability"
+
+    def parse(self, table, fail, *, continuation) -> dict[str, Any]:
+        """The resolved keys that are set (``{}`` when neither is)."""
+        if not any(k in table for k in self.keys):
+            return {}
+        from jaxwalk.global_stability.options import parse
+
+        return parse(table, fail)
+
+    def to_dict(self, resolved) -> dict[str, Any]:
+        return dict(resolved)  # only the keys that are set: fingerprints unchanged without them
+
+    def grid_options(self, resolved):
+        from jaxwalk.global_stability.options import global_options
+
+        return global_options(resolved) if resolved else None
+
+    def compute(self, block: Block) -> dict[str, np.ndarray]:
+        options = block.options
+        return grid_outputs(block.model, block.params, block.gaits, block.results["status"], options.solver,
+                            options.global_stability, block.run, block.sub_batch)
+
+    def outputs(self, resolved) -> tuple[Output, ...]:
+        return (GSN,) * ("gait_sensitivity" in resolved) + MFPT * ("mfpt" in resolved)
+
+    def fullest(self):
+        return {"gait_sensitivity": {}, "mfpt": {}}
+
+    def gradient(self, quantity: str, model, names: tuple[str, ...], solver, newton):
+        from jaxwalk.global_stability.sensitivity_norm import norm_and_gradient
+
+        return lambda p, v0: norm_and_gradient(model, p, v0, names, solver, newton)
+
+
+ANALYSIS = GlobalStability()
