@@ -60,3 +60,11 @@ def test_flat_ground_never_falls():
     assert np.isinf(mfpt(model, params, v, MFPTOptions(sigma=0.0)).mfpt)
     mc = monte_carlo(model, params, v, 0.0, n_walks=8, max_steps=30)
     assert mc.censored == 8 and np.all(mc.steps == 30)
+
+
+def test_mfpt_is_reproducible():
+    """ARPACK starts from a fixed vector (its default is random): the same chain, the same numbers bit for bit."""
+    model, params, v = _gait("simplest")
+    options = MFPTOptions(sigma=1.5e-4, mesh=9, samples=16, span=5.0)
+    first, second = mfpt(model, params, v, options), mfpt(model, params, v, options)
+    assert tuple(first) == tuple(second)

@@ -209,7 +209,10 @@ def _interpolate(mesh: Mesh, values: np.ndarray, v: np.ndarray) -> float:
 def _dominant_eigenvalue(q) -> tuple[float, np.ndarray]:
     """Largest eigenvalue of the non-negative ``q`` (Perron: real, non-negative) and its left
     eigenvector normalised to a distribution (the quasi-stationary distribution)."""
-    vals, vecs = scipy.sparse.linalg.eigs(q.T.tocsr(), k=1, which="LM", tol=1e-12, maxiter=100_000)
+    n = q.shape[0]
+    # A fixed, positive start vector (ARPACK's default is random): reruns give
+    # the same numbers bit for bit, and a Perron vector is positive anyway.
+    vals, vecs = scipy.sparse.linalg.eigs(q.T.tocsr(), k=1, which="LM", tol=1e-12, maxiter=100_000, v0=np.full(n, 1.0 / n))
     pi = np.abs(np.real(vecs[:, 0]))
     return float(np.abs(vals[0])), pi / pi.sum()
 
