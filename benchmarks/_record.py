@@ -6,6 +6,9 @@ from __future__ import annotations
 import json
 import os
 import platform
+import time
+
+import numpy as np
 
 
 def machine() -> dict:
@@ -20,3 +23,19 @@ def write_result(name: str, result: dict) -> str:
         json.dump(result, fh, indent=2)
         fh.write("\n")
     return path
+
+
+def time_compiled(program, args, repeat: int):
+    """``(compile_s, best_run_s, out)``: ``program`` (jitted) compiled for ``args``
+    by ``lower().compile()``, then run ``repeat`` times (best time kept; compile apart)."""
+    import jax
+
+    t0 = time.perf_counter()
+    compiled = program.lower(args).compile()
+    compile_s = time.perf_counter() - t0
+    best, out = np.inf, None
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        out = jax.block_until_ready(compiled(args))
+        best = min(best, time.perf_counter() - t0)
+    return compile_s, best, out

@@ -33,7 +33,7 @@ import jaxwalk  # noqa: E402
 from jaxwalk.gait import find_gait  # noqa: E402
 from jaxwalk.models import get_model  # noqa: E402
 from jaxwalk.step import SolverOptions  # noqa: E402
-from _record import machine, write_result  # noqa: E402
+from _record import machine, time_compiled, write_result  # noqa: E402
 
 SPREAD = {"flatfoot": ("r", 0.38, 0.42), "simplest": ("gamma", 0.004, 0.014), "compass": ("gamma", 0.02, 0.06)}
 
@@ -50,14 +50,7 @@ def time_gait(model, engine: str, n: int, repeat: int) -> tuple[dict, object]:
     solver = SolverOptions(engine=engine)
     params = batch_params(model, n)
     fn = jax.jit(jax.vmap(lambda p: find_gait(model, p, model.initial_guess(p), solver)))
-    t0 = time.perf_counter()
-    compiled = fn.lower(params).compile()
-    compile_s = time.perf_counter() - t0
-    best, out = np.inf, None
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        out = jax.block_until_ready(compiled(params))
-        best = min(best, time.perf_counter() - t0)
+    compile_s, best, out = time_compiled(fn, params, repeat)
     status = np.asarray(out.status)
     row = {"engine": engine, "n": n, "compile_s": compile_s, "run_s": best, "per_config_s": best / n, "ok": int(np.sum(status == 0))}
     print(

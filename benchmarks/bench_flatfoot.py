@@ -44,6 +44,7 @@ from jaxwalk.gait import find_gait  # noqa: E402
 from jaxwalk.grid import AnalysisOptions, analyse_grid  # noqa: E402
 from jaxwalk.models import get_model  # noqa: E402
 from jaxwalk.step import step_map  # noqa: E402
+from _record import time_compiled  # noqa: E402
 
 R_RANGE = (0.38, 0.42)
 MODEL = get_model("flatfoot")
@@ -67,14 +68,7 @@ def one_gait(p):
 def time_program(fn, n: int, repeat: int) -> dict:
     """Compile ``jit(vmap(fn))`` for batch ``n`` and time it (best of ``repeat``)."""
     params = batch_params(n)
-    t0 = time.perf_counter()
-    compiled = jax.jit(jax.vmap(fn)).lower(params).compile()
-    compile_s = time.perf_counter() - t0
-    best, out = np.inf, None
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        out = jax.block_until_ready(compiled(params))
-        best = min(best, time.perf_counter() - t0)
+    compile_s, best, out = time_compiled(jax.jit(jax.vmap(fn)), params, repeat)
     status = np.asarray(out.status if hasattr(out, "status") else out[1].status)  # Gait, or (v, StepResult)
     return {"n": n, "compile_s": compile_s, "run_s": best, "per_config_s": best / n, "ok": int(np.sum(status == 0))}
 
