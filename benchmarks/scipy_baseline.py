@@ -101,24 +101,26 @@ def scipy_stability(gammas: Iterable[float], guess: str = "fit", rtol: float = R
 FLATFOOT_R = (0.38, 0.42)
 
 
-def flatfoot_stability(rs: Iterable[float], richardson: bool = True) -> list[tuple[str, np.ndarray, float, float]]:
+def flatfoot_stability(rs: Iterable[float], richardson: bool = True) -> list[tuple[str, np.ndarray, float, float, float]]:
     """The flat-foot gait search at each foot ratio ``r`` (defaults otherwise), one at a time.
 
     Returns:
-        One ``(status, v_star, lambda_max, period)`` per ``r``: ``v_star`` is
-        ``(psi, psi_dot)`` just after toe-strike (NaN on failure), ``period`` the
-        step time at ``v_star`` (model time units).
+        One ``(status, v_star, lambda_max, period, seconds)`` per ``r``: ``v_star``
+        is ``(psi, psi_dot)`` just after toe-strike (NaN on failure), ``period`` the
+        step time at ``v_star`` (model time units), ``seconds`` the search's wall time.
     """
     out = []
     for r in rs:
+        t0 = time.perf_counter()
         fp = ff.gait(ff.params(r=float(r)), richardson=richardson)
         period = fp.step_info["time"] if fp.status == "ok" else math.nan
-        out.append((fp.status, fp.v, fp.lambda_max, period))
+        out.append((fp.status, fp.v, fp.lambda_max, period, time.perf_counter() - t0))
     return out
 
 
 def _time_flatfoot(args) -> int:
-    rs = np.linspace(*FLATFOOT_R, args.n) if args.n > 1 else np.array([0.5 * sum(FLATFOOT_R)])
+    lo, hi = args.r_min, args.r_max
+    rs = np.linspace(lo, hi, args.n) if args.n > 1 else np.array([0.5 * (lo + hi)])
     best, results = math.inf, []
     for _ in range(max(1, args.repeat)):
         t0 = time.perf_counter()
@@ -126,8 +128,9 @@ def _time_flatfoot(args) -> int:
         best = min(best, time.perf_counter() - t0)
     print(f"scipy baseline (flat-foot walker, DOP853 rtol=atol={FLATFOOT_RTOL:g}, Newton + central differences"
           f"{'' if args.plain else ', Richardson at the fixed point'}, guess = the stored nominal gait)")
-    for r, (status, v, lam, period) in zip(rs, results):
-        print(f"  r = {r:.6f}: {status:8s} v* = ({v[0]:.12f}, {v[1]:.12f})  lambda_max = {lam:.9f}  period = {period:.9f}")
+    for r, (status, v, lam, period, seconds) in zip(rs, results):
+        print(f"  r = {r:.6f}: {status:8s} v* = ({v[0]:.12f}, {v[1]:.12f})  lambda_max = {lam:.9f}  "
+              f"period = {period:.9f}  {seconds:.3f} s")
     n_ok = sum(status == "ok" for status, *_ in results)
     print(f"configs: {len(rs)}  ok: {n_ok}  r: [{rs[0]:g}, {rs[-1]:g}]")
     print(f"total: {best:.3f} s  per config: {best / len(rs):.4f} s")
@@ -140,6 +143,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--plain", action="store_true",
                         help="flat-foot: plain central differences at the fixed point (no Richardson)")
     parser.add_argument("--n", type=int, default=32, help="number of configurations (slopes or foot ratios)")
+    parser.add_argument("--r-min", type=float, default=FLATFOOT_R[0], help="flat-foot: smallest foot ratio")
+    parser.add_argument("--r-max", type=float, default=FLATFOOT_R[1], help="flat-foot: largest foot ratio")
     parser.add_argument("--gamma-min", type=float, default=0.002)
     parser.add_argument("--gamma-max", type=float, default=0.015)
     parser.add_argument("--guess", choices=("fit", "scaling"), default="fit")

@@ -89,14 +89,15 @@ def _events(p, phase, ctx):
             for kind, direction in (("minimum", 1.0), ("maximum", -1.0)):
                 fn = lambda t, y, point=point: gd.clearance(y[:N_Q], y[N_Q:], p, ctx)[1][point]
                 fn.terminal, fn.direction = False, direction
-                extrema.append((kind, fn))
+                extrema.append(((kind, point), fn))
     return terminal, extrema
 
 
 def solve_phase(t0: float, y0: np.ndarray, p, phase: int, ctx: dict, rtol=RTOL, atol=ATOL):
     """Integrate ``phase`` to its first event: ``(status, name, t, y, extrema)``; ``status`` is
     ``None`` at an event, else ``"timeout"`` or ``"solver_failed"``; ``extrema`` lists
-    ``(kind, t, y)`` of the swing foot's height extrema on the way."""
+    ``((kind, point), t, y)`` of the swing foot's height extrema on the way (``kind``
+    ``"minimum"`` or ``"maximum"``, ``point`` 0 for the heel, 1 for the toe)."""
     terminal, extrema = _events(p, phase, ctx)
     sol = solve_ivp(lambda t, y: vector_field(y, p, phase, ctx), (t0, t0 + PHASE_TIME_LIMIT), y0,
                     method="DOP853", rtol=rtol, atol=atol, events=[f for _, f in terminal + extrema])  # fmt: skip
@@ -123,10 +124,10 @@ def run_step(y: np.ndarray, phase: int, ctx: dict, p: Mapping[str, float], rtol=
         else:
             status, name, t_ev, y_ev, extrema = solve_phase(t, y, p, phase, ctx, rtol, atol)
         n_events += len(extrema)
-        for kind, _, ye in extrema:
+        for (kind, point), _, ye in extrema:
             if kind == "minimum":
                 h, _ = gd.clearance(ye[:N_Q], ye[N_Q:], p, ctx)
-                ctx = dict(ctx, min_clearance=min(ctx["min_clearance"], float(np.min(h))))
+                ctx = dict(ctx, min_clearance=min(ctx["min_clearance"], float(h[point])))
         if status is None:
             n_events += 1
             work += hip_work(y[:N_Q], y_ev[:N_Q], p)
