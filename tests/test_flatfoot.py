@@ -188,6 +188,63 @@ def test_jacobian_matches_central_differences(params, step_fn, tangent_fn, fixed
         np.testing.assert_allclose(np.asarray(column), np.asarray((plus - minus) / (2 * h)), rtol=1e-4, atol=1e-5)
 
 
+@pytest.fixture(scope="module")
+def scipy_gait():
+    """The independent NumPy/SciPy walker's gait from the same stored guess (no JAX: seconds)."""
+    from tests.reference import flatfoot as ref
+
+    return ref.gait()
+
+
+def test_scipy_reference_has_the_model_defaults_and_guess(params):
+    from tests.reference import flatfoot as ref
+
+    assert set(ref.DEFAULTS) == set(params)
+    for name, value in ref.DEFAULTS.items():
+        assert float(params[name]) == value, name
+    np.testing.assert_array_equal(np.asarray(MODEL.initial_guess(params)), np.asarray(ref.NOMINAL_GUESS))
+
+
+def test_gait_matches_the_independent_scipy_walker(params, step_fn, fixed_point, scipy_gait):
+    """Issue 12's check: the same walker written again from docs/model.md in NumPy
+    (hand-derived equations, SciPy's DOP853 at the same tolerances, Newton on a
+    central-difference Jacobian) has the same gait: fixed point to 1e-7, step
+    period to 1e-7, lambda_max to 1e-5 (measured: 1.6e-8, 2e-8 and 3.3e-6; at
+    rtol = atol = 1e-12 jaxwalk's gait comes within 5e-10, 6e-10 and 1e-7)."""
+    v, jac = fixed_point
+    assert scipy_gait.status == "ok"
+    np.testing.assert_allclose(scipy_gait.v, np.asarray(v), rtol=0.0, atol=1e-7)
+    lam = float(np.max(np.abs(np.linalg.eigvals(np.asarray(jac)))))
+    assert abs(scipy_gait.lambda_max - lam) < 1e-5, (scipy_gait.lambda_max, lam)
+    _, res = step_fn(v, params)
+    assert abs(scipy_gait.step_info["time"] - float(res.time)) < 1e-7
+
+
+def test_step_matches_the_independent_scipy_walker(params, step_fn, fixed_point):
+    """One step from jaxwalk's fixed point in both: the same events in the same order
+    at the same times (to 1e-7), the same next section point (to 1e-8), step length
+    and minimum swing clearance. Measured: 4e-9 apart in ``v_next`` (3e-8 in the
+    heel-strike time: the heel lands at 0.05 leg lengths per time unit). The SciPy
+    step is converged in its tolerance (it moves by 1e-10 from rtol 1e-10 to 1e-12)
+    and jaxwalk's at rtol = atol = 1e-12 lands 2e-11 from it, so the gap is
+    jaxwalk's integration error at its default 1e-10, not a difference of model."""
+    from tests.reference import flatfoot as ref
+
+    v = fixed_point[0]
+    v1, res = step_fn(v, params)
+    v1_ref, info = ref.step_map(np.asarray(v))
+    assert info["status"] == "ok"
+    np.testing.assert_allclose(v1_ref, np.asarray(v1), rtol=0.0, atol=1e-8)
+    names = [ev.GUARD_NAMES[c] for c in ph.decode_history(np.asarray(res.ctx))]
+    assert [name for name, _ in info["events"]] == names
+    times = dict(info["events"])
+    for name in ("unlock", "knee_flex", "toe_off", "knee_strike", "heel_strike"):
+        assert abs(times[name] - float(res.ctx[ph.C["t_" + name]])) < 1e-7, name
+    assert abs(info["time"] - float(res.time)) < 1e-7 and abs(info["length"] - float(res.length)) < 1e-7
+    assert abs(info["min_clearance"] - float(cl.min_clearance(res.ctx))) < 1e-8
+    assert info["n_events"] == int(res.n_events)
+
+
 # ----------------------------------------------------------------- physics
 def test_energy_minus_actuator_work_is_constant_in_every_phase(params, walk):
     for states in _phases(walk)[:-1]:  # the last is the next step's first instant

@@ -4,7 +4,10 @@ These test the reference against physics and the literature, not against the
 JAX engine: Garcia's published fixed point, the period-doubling slope, energy
 conservation in single support, angular-momentum conservation at heel-strike
 (with kinematics written again here, from point-mass positions), and the
-compass walker's simplest-walker limit.  Each test runs in well under 20 s.
+compass walker's simplest-walker limit.  The flat-foot reference
+(tests/reference/flatfoot/) is checked against its own point-mass sums and
+against energy conservation along its nominal step.  Each test runs in well
+under 20 s.
 """
 
 from __future__ import annotations
@@ -258,3 +261,54 @@ def test_scuffing_rule_garcia(simplest_fp):
     assert garcia["status"] == "ok" and garcia["scuffed_after_midstance"]
     assert garcia["x_minus"][0] + garcia["x_minus"][1] == pytest.approx(0.0, abs=1e-12)
     assert ref.step_down_trial(0.0015, p, v_star=simplest_fp.v, scuffing="ignore")[1]["failed_step"] == 2
+
+
+# ----------------------------------------------------------------- the flat-foot reference
+def test_flatfoot_reference_mass_matrix_closed_form_is_the_point_sum():
+    """The vector field's closed-form double-pendulum mass matrix and forces equal
+    the plain sum over point masses, ``sum m J^T J`` and ``sum J^T m (g - Jdot qd)``,
+    with inertias and a slope switched on."""
+    from tests.reference.flatfoot import kinematics as kin
+    from tests.reference.flatfoot import params
+
+    p = params(rho_t=0.3, rho_s=0.25, gamma=0.05, c_t=0.4, m_f=0.02)
+    rng = np.random.default_rng(7)
+    for _ in range(5):
+        q, qd = rng.normal(size=6), rng.normal(size=6)
+        mass, force = kin.mass_matrix_and_forces(q, qd, p)
+        summed = sum(m * (kin.leg_point(q, leg, a, b)[1].T @ (kin.gravity(p) - kin.leg_point_convective(q, qd, leg, a, b)))
+                     for m, leg, a, b in kin.point_masses(p))  # fmt: skip
+        np.testing.assert_allclose(mass, kin.mass_matrix(q, p), atol=1e-14)
+        np.testing.assert_allclose(force, summed, atol=1e-13)
+
+
+def test_flatfoot_reference_conserves_energy_minus_hip_work_in_every_phase():
+    """Along the nominal step, energy (kinetic, gravity, springs) minus the hip's
+    work is constant within each phase, and the active constraints keep holding:
+    the hand-derived forces are those of the potentials (docs/model.md, "Forces")."""
+    from tests.reference import flatfoot as ff
+    from tests.reference.flatfoot.constraints import ACTIVE, constraint_terms
+    from tests.reference.flatfoot.dynamics import energy, vector_field
+    from tests.reference.flatfoot.forces import hip_work
+    from tests.reference.flatfoot.resets import on_event
+    from tests.reference.flatfoot.step import solve_phase
+
+    p = ff.params()
+    y, phase, ctx = ff.section_to_state(ff.NOMINAL_GUESS, p)
+    t, visited = 0.0, []
+    while True:
+        status, name, t_ev, y_ev, _ = solve_phase(t, y, p, phase, ctx)
+        assert status is None
+        sol = solve_ivp(lambda _, x: vector_field(x, p, phase, ctx), (t, t_ev), y, method="DOP853",
+                        rtol=1e-12, atol=1e-12, t_eval=np.linspace(t, t_ev, 12))  # fmt: skip
+        balance = [energy(x, p, phase, ctx) - hip_work(y[:6], x[:6], p) for x in sol.y.T]
+        assert np.ptp(balance) < 1e-10, (phase, np.ptp(balance))
+        rows = list(ACTIVE[phase])
+        assert np.max(np.abs(constraint_terms(sol.y[:6, -1], sol.y[6:, -1], p, ctx)[0][rows])) < 1e-10
+        visited.append(phase)
+        tr = on_event(name, t_ev, y_ev, p, phase, ctx)
+        assert tr.status is None
+        if tr.done:
+            break
+        t, y, phase, ctx = t_ev, tr.y, tr.phase, tr.ctx
+    assert visited == [0, 1, 2, 3, 4]

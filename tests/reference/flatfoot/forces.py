@@ -1,0 +1,97 @@
+"""Ankle springs, hip torque and ground reactions of the reference flat-foot walker.
+
+Part of :mod:`tests.reference.flatfoot` (docs/model.md, "Forces"). A foot on the
+ground has its angle ``phi`` (from the slope, toe-up positive) fixed by its
+contact: 0 flat, ``atan2`` of the toe-to-ankle or heel-to-ankle vector when
+pivoting. Its spring stores ``V = k/2 (shank - phi)^2`` (in heel pivot relaxed at
+the landing angle ``shank + swing_dorsi``), and the generalized force is
+``-dV/dq`` with ``d phi/dq`` written out from ``d atan2(w)/dw = (-w_y, w_x)/|w|^2``.
+The hip torque ``P`` acts ``+P`` on the swing thigh, ``-P`` on the stance thigh.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Mapping
+
+import numpy as np
+
+from tests.reference.flatfoot import kinematics as kin
+from tests.reference.flatfoot.constraints import ANKLE_1_X, ANKLE_1_Y, HEEL_2, TOE_2, anchors
+from tests.reference.flatfoot.params import HEEL_PIVOT, N_Q, PUSH_OFF, SHANK_1, SHANK_2, SHANK_RELEASE, THIGH_1, THIGH_2
+
+ON_TOE = (PUSH_OFF, SHANK_RELEASE)
+
+
+def _angle_gradient(w: np.ndarray) -> np.ndarray:
+    """``d atan2(w_y, w_x) / dw``, ``(2,)``."""
+    return np.array([-w[1], w[0]]) / float(w @ w)
+
+
+def _pivot(q, p, ctx, phase):
+    """``(w, sign, rest)`` of foot 2's pivot in ``phase``: ``phi = atan2(w)`` with
+    ``w = sign (ankle_2 - anchor)`` and the spring's rest angle; ``None`` off the ground."""
+    anc = anchors(p, ctx)
+    a2, _ = kin.ankle(q, p, 2)
+    if phase in ON_TOE:
+        return anc["toe_2"] - a2, -1.0, q[SHANK_2]
+    if phase == HEEL_PIVOT:
+        return a2 - anc["heel_2"], 1.0, q[SHANK_2] + p["swing_dorsi"]
+    return None
+
+
+def spring_energy(q: np.ndarray, p: Mapping[str, float], phase: int, ctx: dict) -> float:
+    energy = 0.5 * p["k"] * q[SHANK_1] ** 2
+    pivot = _pivot(q, p, ctx, phase)
+    if pivot is not None:
+        w, _, rest = pivot
+        energy += 0.5 * p["k"] * (rest - math.atan2(w[1], w[0])) ** 2
+    return energy
+
+
+def joint_forces(q: np.ndarray, p: Mapping[str, float], phase: int, ctx: dict) -> np.ndarray:
+    """``(6,)`` generalized spring forces ``-dV/dq`` plus the hip torque."""
+    force = np.zeros(N_Q)
+    force[SHANK_1] -= p["k"] * q[SHANK_1]
+    pivot = _pivot(q, p, ctx, phase)
+    if pivot is not None:
+        w, sign, rest = pivot
+        _, jac = kin.ankle(q, p, 2)
+        stretch = rest - math.atan2(w[1], w[0])
+        dphi = sign * (_angle_gradient(w) @ jac)  # d phi / dq
+        drest = np.zeros(N_Q)
+        drest[SHANK_2] = 1.0  # the rest angle turns with the shank (swing_dorsi is constant)
+        force -= p["k"] * stretch * (drest - dphi)
+    force[THIGH_2] += p["P"]
+    force[THIGH_1] -= p["P"]
+    return force
+
+
+def hip_work(q_start: np.ndarray, q_end: np.ndarray, p: Mapping[str, float]) -> float:
+    """Work of the hip torque between two configurations of one step."""
+    return p["P"] * ((q_end[THIGH_2] - q_end[THIGH_1]) - (q_start[THIGH_2] - q_start[THIGH_1]))
+
+
+def reactions(q: np.ndarray, lam: np.ndarray, p: Mapping[str, float], phase: int, ctx: dict):
+    """Ground forces ``(stance, toe_2, heel_2)``, each ``(tangential, normal)``.
+
+    The flat stance foot's force is its ankle pin's multiplier. A pivoting foot
+    is massless, so the ground supplies what the ankle feels from the foot: the
+    circle row's multiplier along ``(ankle - anchor)/|ankle - anchor|`` plus the
+    spring's reaction ``-dV/d ankle`` (at fixed shank angle) across it. Zero when
+    that contact is not made.
+    """
+    stance = np.array([lam[ANKLE_1_X], lam[ANKLE_1_Y]])
+    toe = np.zeros(2)
+    heel = np.zeros(2)
+    pivot = _pivot(q, p, ctx, phase)
+    if pivot is not None:
+        w, sign, rest = pivot
+        radial = sign * w / math.hypot(w[0], w[1])  # (ankle - anchor) / |ankle - anchor|
+        stretch = rest - math.atan2(w[1], w[0])
+        across = p["k"] * stretch * sign * _angle_gradient(w)  # -dV/da = k (rest - phi) dphi/da
+        if phase in ON_TOE:
+            toe = lam[TOE_2] * radial + across
+        else:
+            heel = lam[HEEL_2] * radial + across
+    return stance, toe, heel

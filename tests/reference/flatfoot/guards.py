@@ -1,0 +1,118 @@
+"""Guards of the reference flat-foot walker: positive while a phase goes on.
+
+Part of :mod:`tests.reference.flatfoot`; docs/model.md's guard table, every row.
+A guard that does not apply returns 1, and each gate opens only where the gated
+value is already positive (so opening it is no crossing). The swing foot's
+height extrema (docs/model.md's ``heel_extremum``/``toe_extremum``) are not
+guards here: they change no phase, so the step integrates through them and
+records the minima as non-terminal events (:mod:`tests.reference.flatfoot.step`).
+"""
+
+from __future__ import annotations
+
+from typing import Mapping
+
+import numpy as np
+
+from tests.reference.flatfoot import kinematics as kin
+from tests.reference.flatfoot.constraints import KNEE_1, KNEE_2
+from tests.reference.flatfoot.dynamics import accelerations
+from tests.reference.flatfoot.forces import ON_TOE, reactions
+from tests.reference.flatfoot.params import (
+    FALL_HEIGHT, FLEXION_LIMIT, HEEL_PIVOT, IN_AIR, LATCHED, LOCKED_SWING, N_Q, PUSH_OFF, RELEASED,
+    SEGMENT_LIMIT, SHANK_RELEASE, SWING, X_H, Y_H, foot_arms,
+)  # fmt: skip
+
+NAMES = ("unlock", "knee_flex", "toe_off", "knee_strike", "heel_strike", "toe_strike", "fall", "leg_range",
+         "stall", "running", "scuff", "slip", "knee_buckle")  # fmt: skip
+G = {name: i for i, name in enumerate(NAMES)}
+#: Failure guards and their status, in order of precedence (the first non-positive wins).
+FAILURES = (("fall", "fell"), ("leg_range", "fell"), ("stall", "stalled"), ("running", "running"),
+            ("scuff", "scuffing"), ("slip", "slipping"), ("knee_buckle", "knee_buckled"))  # fmt: skip
+#: Phases in which the swing knee rests on its extension stop (and may be released).
+ON_STOP = (PUSH_OFF, LOCKED_SWING)
+
+
+def ground_under(x: float, p: Mapping[str, float], ctx: dict) -> float:
+    """Ground height below ``x``: the previous level behind foot 1, 0 under it, the next ahead."""
+    a_h, a_t = foot_arms(p)
+    if x > ctx["x_ankle_1"] + a_t:
+        return ctx["ground_next"]
+    if x < ctx["x_ankle_1"] - a_h:
+        return ctx["y_toe_2"]
+    return 0.0
+
+
+def cone(force: np.ndarray, p: Mapping[str, float]) -> float:
+    """``mu N - |T|`` of a ground force ``(T, N)``: positive inside the friction cone."""
+    return p["mu"] * force[1] - abs(force[0])
+
+
+def clearance(q: np.ndarray, qd: np.ndarray, p: Mapping[str, float], ctx: dict):
+    """Heights of foot 2's heel and toe above the ground below them, and their vertical rates, ``(2,)`` each."""
+    heel, toe, heel_dot, toe_dot = kin.free_foot(q, qd, p)
+    heights = np.array([heel[1] - ground_under(heel[0], p, ctx), toe[1] - ground_under(toe[0], p, ctx)])
+    return heights, np.array([heel_dot[1], toe_dot[1]])
+
+
+def guard_values(t: float, y: np.ndarray, p: Mapping[str, float], phase: int, ctx: dict) -> np.ndarray:
+    """``(13,)`` guards in the order of :data:`NAMES` at time ``t`` of the step."""
+    q, qd = y[:N_Q], y[N_Q:]
+    _, lam = accelerations(y, p, phase, ctx)
+    stance, toe, heel = reactions(q, lam, p, phase, ctx)
+    _, a_t = foot_arms(p)
+    g = np.ones(len(NAMES))
+    knee_2 = ctx["knee_2"]
+    if phase in ON_STOP and knee_2 == LATCHED:
+        g[G["unlock"]] = p["delay"] - t
+    if phase in ON_STOP and knee_2 == RELEASED:
+        g[G["knee_flex"]] = lam[KNEE_2]  # the stop's torque, positive while it pushes
+    if phase in ON_TOE:
+        g[G["toe_off"]] = cone(toe, p)
+    if phase in (SHANK_RELEASE, SWING) and kin.flexion(qd, 2) < 0.0:
+        g[G["knee_strike"]] = kin.flexion(q, 2) - p["knee_lock"]
+    a2, _ = kin.ankle(q, p, 2)
+    if p["knee_gate"] > 0.5 and phase == LOCKED_SWING and knee_2 == RELEASED:
+        g[G["knee_strike"]] = ctx["x_ankle_1"] - a2[0]  # the paper's gate: the latch closes as the ankle passes
+    heel_pt, toe_pt, _, _ = kin.free_foot(q, qd, p)
+    if phase in IN_AIR and heel_pt[0] > ctx["x_ankle_1"] + a_t:
+        g[G["heel_strike"]] = heel_pt[1] - ctx["ground_next"]
+    if phase == HEEL_PIVOT:
+        g[G["toe_strike"]] = a2[1] - ctx["ground_next"]
+    g[G["fall"]] = q[Y_H] - FALL_HEIGHT
+    g[G["leg_range"]] = min(SEGMENT_LIMIT - np.max(np.abs(q[2:])), FLEXION_LIMIT - kin.flexion(q, 2))
+    g[G["stall"]] = qd[X_H]
+    g[G["running"]] = stance[1]
+    if phase in IN_AIR:
+        heights, _ = clearance(q, qd, p, ctx)
+        g[G["scuff"]] = np.min(heights) + p["scuff_tol"]
+    g[G["slip"]] = min(cone(stance, p), cone(heel, p) if phase == HEEL_PIVOT else 1.0)
+    if p["stance_latch"] < 0.5:
+        g[G["knee_buckle"]] = min(lam[KNEE_1], lam[KNEE_2] if phase == HEEL_PIVOT else 1.0)
+    return g
+
+
+def first_failure(g: np.ndarray) -> str | None:
+    """Status of the first failure guard that is not positive, or ``None``."""
+    for name, status in FAILURES:
+        if g[G[name]] <= 0.0:
+            return status
+    return None
+
+
+def active(phase: int, p: Mapping[str, float], ctx: dict) -> list[int]:
+    """Guards that can fire in ``phase`` with latch state ``ctx["knee_2"]`` (the others are 1 throughout)."""
+    names = ["fall", "leg_range", "stall", "running", "slip"]
+    if phase in ON_STOP:
+        names.append("unlock" if ctx["knee_2"] == LATCHED else "knee_flex" if ctx["knee_2"] == RELEASED else None)
+    if phase in ON_TOE:
+        names.append("toe_off")
+    if phase in (SHANK_RELEASE, SWING) or (p["knee_gate"] > 0.5 and phase == LOCKED_SWING):
+        names.append("knee_strike")
+    if phase in IN_AIR:
+        names += ["heel_strike", "scuff"]
+    if phase == HEEL_PIVOT:
+        names.append("toe_strike")
+    if p["stance_latch"] < 0.5:
+        names.append("knee_buckle")
+    return [G[n] for n in names if n is not None]

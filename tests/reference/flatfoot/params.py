@@ -1,0 +1,71 @@
+"""Parameters, indices and derived lengths of the reference flat-foot walker.
+
+Part of the independent NumPy/SciPy reference of the flat-foot walker
+(:mod:`tests.reference.flatfoot`). Units: total mass M = leg length L = g = 1
+(docs/model.md, "Units"); angles in rad.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Mapping
+
+#: The model's defaults, copied from the parameter table of docs/model.md
+#: ("Bodies" and "Defaults and the nominal gait"; the same numbers as
+#: ``FlatFootWalker.parameters``).
+DEFAULTS: dict[str, float] = {
+    "gamma": 0.0,
+    "m_h": 0.678, "m_t": 0.100, "m_s": 0.0465, "m_f": 0.0145,
+    "l_t": 0.5, "l_s": 0.5, "c_t": 0.433, "c_s": 0.433,
+    "l_f": 0.22, "r": 0.4,
+    "k": 0.03, "P": 0.0076, "delay": 0.066, "knee_lock": 0.2,
+    "scuff_tol": 0.03, "rho_t": 0.0, "rho_s": 0.0,
+    "knee_gate": 0.0, "swing_dorsi": 0.0, "mu": 1e6,
+    "impulse_tol": 0.01, "stance_latch": 1.0,
+}  # fmt: skip
+
+#: Newton's start at the defaults: ``FlatFootWalker.initial_guess(default_params())``
+#: (jaxwalk/models/flatfoot/model.py; also docs/model.md's fixed point v*),
+#: ``(psi, psi_dot)``: stance chord angle (rad) and its rate (rad per sqrt(L/g)).
+NOMINAL_GUESS = (0.16327572732, -0.186444529299)
+
+# Generalized coordinates q = (x_h, y_h, thigh_1, shank_1, thigh_2, shank_2).
+X_H, Y_H, THIGH_1, SHANK_1, THIGH_2, SHANK_2 = range(6)
+N_Q = 6
+
+# Phases (the order of docs/model.md's phase table).
+PUSH_OFF, SHANK_RELEASE, SWING, LOCKED_SWING, HEEL_PIVOT = range(5)
+PHASE_NAMES = ("push_off", "shank_release", "swing", "locked_swing", "heel_pivot")
+IN_AIR = (SWING, LOCKED_SWING)
+
+# Swing-knee latch states (ctx "knee_2").
+LATCHED, RELEASED, RELATCHED = "latched", "released", "relatched"
+
+#: Hip height below which the walker fell; largest |segment angle|; largest swing flexion.
+FALL_HEIGHT, SEGMENT_LIMIT, FLEXION_LIMIT = 0.5, 1.5, 2.5
+
+
+def params(**overrides: float) -> dict[str, float]:
+    """The defaults with ``overrides``; an unknown name raises ``KeyError``."""
+    unknown = set(overrides) - set(DEFAULTS)
+    if unknown:
+        raise KeyError(f"unknown flat-foot parameters: {sorted(unknown)}")
+    out = dict(DEFAULTS)
+    out.update({k: float(v) for k, v in overrides.items()})
+    return out
+
+
+def foot_arms(p: Mapping[str, float]) -> tuple[float, float]:
+    """``(a_h, a_t)``: ankle to heel and ankle to toe (the foot ratio r = a_h / a_t)."""
+    return p["l_f"] * p["r"] / (1.0 + p["r"]), p["l_f"] / (1.0 + p["r"])
+
+
+def chord(p: Mapping[str, float]) -> tuple[float, float]:
+    """``(A, delta)`` of a leg locked at flexion ``knee_lock``: hip-to-ankle length,
+    and the chord's angle below the thigh's (law of cosines in the hip-knee-ankle triangle)."""
+    lt, ls, kappa = p["l_t"], p["l_s"], p["knee_lock"]
+    # Hip-knee-ankle triangle: the interior angle at the knee is pi - kappa.
+    length = math.sqrt(lt * lt + ls * ls - 2.0 * lt * ls * math.cos(math.pi - kappa))
+    # Components of the chord along and across the thigh: (lt + ls cos kappa, ls sin kappa).
+    delta = math.atan2(ls * math.sin(kappa), lt + ls * math.cos(kappa))
+    return length, delta
