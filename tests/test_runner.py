@@ -78,6 +78,17 @@ def fake_results(shape=(4,), n_v=3, **changes):
     return out
 
 
+def test_every_gait_output_is_read_from_a_gait_field():
+    """``analyse_chunk`` reads each gait output from the ``Gait`` field its ``source`` names."""
+    from jaxwalk.gait import Gait
+    from jaxwalk.outputs import Output
+
+    missing = [o.source for o in gait.OUTPUTS if o.source not in Gait._fields]
+    assert not missing
+    assert Output("x", "float64", "an output").source == "x"
+    assert {o.name: o.source for o in gait.OUTPUTS}["fixed_point"] == "v"
+
+
 def test_nan_with_status_ok_becomes_nonfinite():
     period = np.ones(4)
     period[1] = np.nan
