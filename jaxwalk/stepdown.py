@@ -74,9 +74,12 @@ class StepDownResult(NamedTuple):
 def step_down_trial(
     model: Walker, params, v_star: Array, h: Array, n_steps: int, solver: SolverOptions = SolverOptions()
 ) -> StepDownTrial:
-    """Drop the ground by ``h`` at the next touchdown from ``v*``; walk ``n_steps`` more."""
+    """Drop the ground by ``h`` at the next touchdown from ``v*``; walk ``n_steps`` more.
+
+    ``model`` needs the step-down capability (:meth:`jaxwalk.walker.Walker.with_ground_drop`).
+    """
     y, phase, ctx = model.section_to_state(v_star, params)
-    ctx = ctx.at[model.ctx_index("ground_next")].set(-h * jnp.cos(params["gamma"]))
+    ctx = model.with_ground_drop(ctx, params, h)
     ok = jnp.int8(Status.OK)
 
     def cond(carry):
