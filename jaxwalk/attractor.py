@@ -67,6 +67,8 @@ class AttractorOptions:
     def __post_init__(self):
         if self.max_period < 1 or self.max_period & (self.max_period - 1):
             raise ValueError(f"max_period must be a power of two >= 1, got {self.max_period}")
+        if self.steps < 1:  # settle's loop is bounded by it (its condition)
+            raise ValueError(f"steps must be >= 1, got {self.steps}")
 
     @property
     def periods(self) -> tuple[int, ...]:
@@ -139,6 +141,16 @@ def dominant_direction(jacobian: Array) -> Array:
     return d / jnp.max(jnp.abs(d))
 
 
+class _Walk(NamedTuple):
+    """The carry of :func:`settle`'s loop, one iteration per step walked."""
+
+    n: Array  # int32, steps walked
+    v: Array  # (n_v,) the last iterate
+    history: Array  # (max_period, n_v): history[i] is v_(n-1-i)
+    status: Array  # int8; IN_PROGRESS while the walk goes on
+    k: Array  # int32, the period found (0: none yet)
+
+
 def settle(model: Walker, params, v0: Array, options: AttractorOptions, solver: SolverOptions,
            active: Array | bool = True):
     """Walk from ``v0`` until the iterates repeat with a tested period.
@@ -153,13 +165,15 @@ def settle(model: Walker, params, v0: Array, options: AttractorOptions, solver: 
     n_hist = options.max_period
     running = jnp.int8(Status.IN_PROGRESS)
 
-    def cond(carry):
-        return carry[3] == running
+    def cond(c: _Walk):
+        # The body stops the walk (NO_PERIODIC_ATTRACTOR) at options.steps steps,
+        # so the bound never decides alone; it shows how long the loop can run.
+        return (c.status == running) & (c.n < options.steps)
 
-    def body(carry):
-        n, v, history, _, _ = carry
+    def body(c: _Walk) -> _Walk:
+        v, history = c.v, c.history
         v_next, res = step_map(model, v, params, solver)
-        n = n + 1
+        n = c.n + 1
         # history[i] is v_(n-1-i): v_next repeats with period k if it is within tol of history[k-1].
         dist = jnp.max(jnp.abs(history[periods - 1] - v_next), axis=-1)
         repeats = (dist < options.settle_tol) & (periods <= n)
@@ -170,13 +184,13 @@ def settle(model: Walker, params, v0: Array, options: AttractorOptions, solver: 
             running,
         )
         history = jnp.concatenate([v_next[None], history[:-1]])
-        return n, v_next, history, status, k.astype(jnp.int32)
+        return _Walk(n, v_next, history, status, k.astype(jnp.int32))
 
     history0 = jnp.full((n_hist,) + v0.shape, jnp.inf, v0.dtype)
-    carry0 = (jnp.zeros((), jnp.int32), v0, history0, running, jnp.zeros((), jnp.int32))
-    cond_active = lambda carry: cond(carry) & jnp.asarray(active)
-    n, v, _, status, k = jax.lax.while_loop(cond_active, body, carry0)
-    return v, k, n, status
+    c0 = _Walk(n=jnp.zeros((), jnp.int32), v=v0, history=history0, status=running, k=jnp.zeros((), jnp.int32))
+    cond_active = lambda c: cond(c) & jnp.asarray(active)
+    c = jax.lax.while_loop(cond_active, body, c0)
+    return c.v, c.k, c.n, c.status
 
 
 def find_cycle(model: Walker, params, v0: Array, k: Array, max_period: int,
@@ -239,6 +253,17 @@ def find_cycle(model: Walker, params, v0: Array, k: Array, max_period: int,
     return out["v"], out["jac"], out["points"], out["status"]
 
 
+class _Polish(NamedTuple):
+    """The carry of :func:`polish_cycle`'s loop, one Newton solve of ``f^k`` per iteration."""
+
+    k: Array  # int32, the period solved for
+    v: Array  # (n_v,) its start
+    jac: Array  # (n_v, n_v) the k-step map's Jacobian at the cycle
+    points: Array  # (max_period, n_v) the cycle (cycle_map's)
+    status: Array  # int8, the last solve's
+    shorter: Array  # bool: the cycle has a shorter period; solve again at it
+
+
 def polish_cycle(model: Walker, params, v0: Array, k: Array, options: AttractorOptions,
                  solver: SolverOptions, newton: NewtonOptions):
     """Newton on ``f^k`` from ``v0`` (:func:`find_cycle`), then at the cycle's
@@ -250,20 +275,22 @@ def polish_cycle(model: Walker, params, v0: Array, k: Array, options: AttractorO
     """
     n_v = v0.shape[0]
 
-    def cond(carry):
-        return carry[-1]
+    # Another solve only at a strictly shorter tested period (1, 2, 4, ...,
+    # max_period): at most len(options.periods) solves.
+    def cond(c: _Polish):
+        return c.shorter
 
-    def body(carry):
-        k, v, *_ = carry
-        _, jac, points, status = find_cycle(model, params, v, k, options.max_period, solver, newton)
-        k_min = minimal_period(points, k, options)
-        shorter = (status == Status.OK) & (k_min < k)
-        return jnp.where(shorter, k_min, k), jnp.where(shorter, points[0], v), jac, points, status, shorter
+    def body(c: _Polish) -> _Polish:
+        _, jac, points, status = find_cycle(model, params, c.v, c.k, options.max_period, solver, newton)
+        k_min = minimal_period(points, c.k, options)
+        shorter = (status == Status.OK) & (k_min < c.k)
+        return _Polish(jnp.where(shorter, k_min, c.k), jnp.where(shorter, points[0], c.v), jac, points, status, shorter)
 
     nan = jnp.full((), jnp.nan, v0.dtype)
-    carry0 = (k, v0, jnp.full((n_v, n_v), nan), jnp.full((options.max_period, n_v), nan), jnp.int8(Status.OK), jnp.asarray(True))
-    k, _, jac, points, status, _ = jax.lax.while_loop(cond, body, carry0)
-    return k, jac, points, status
+    c0 = _Polish(k=k, v=v0, jac=jnp.full((n_v, n_v), nan), points=jnp.full((options.max_period, n_v), nan),
+                 status=jnp.int8(Status.OK), shorter=jnp.asarray(True))
+    c = jax.lax.while_loop(cond, body, c0)
+    return c.k, c.jac, c.points, c.status
 
 
 def minimal_period(points: Array, k: Array, options: AttractorOptions) -> Array:

@@ -160,12 +160,14 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
 
 def add_plot(sub) -> None:
+    from jaxwalk.analyses import plotted
+
     p = sub.add_parser("plot", help="heatmaps and line plots of a sweep dataset", description=cmd_plot.__doc__)
     p.add_argument("dataset", metavar="DATASET", help="a sweep dataset, DIR/<name>.zarr")
     p.add_argument("--out", default=None, metavar="DIR", help="output directory (default: the dataset's directory)")
     p.add_argument(
         "--vars", nargs="+", default=None, metavar="VAR",
-        help="variables to draw (default: lambda_max h_max speed cost_of_transport, those with values)",
+        help=f"variables to draw (default: {' '.join(plotted())}, those with values)",
     )
     p.add_argument(
         "--kind", action="append", choices=("heatmap", "lines"), default=None,

@@ -21,6 +21,7 @@ import jax
 import numpy as np
 
 from jaxwalk import program_cache
+from jaxwalk.analyses.gait import OUTPUTS as GAIT_OUTPUTS
 from jaxwalk.attractor import AttractorOptions
 from jaxwalk.batching import sub_batch_size
 from jaxwalk.batching import in_sub_batches as _in_sub_batches, run_chunks as _run_chunks
@@ -197,13 +198,14 @@ def analyse_chunk(
             the whole grid's whoever computes it, so its lines run alike.
 
     Returns:
-        Arrays with the grid's shape ``S`` in front: ``status`` (int8),
-        ``lambda_max``, ``eigenvalues`` (complex, ``S + (n_v,)``),
-        ``fixed_point`` (``S + (n_v,)``), ``jacobian`` (``S + (n_v, n_v)``),
-        ``period``, ``step_length``, ``speed``, ``work`` (actuator work per
-        step), ``cost_of_transport``, ``newton_iterations``; and the outputs of
-        the analyses ``options`` asks for (:func:`_beyond_the_gait`; their
-        declarations are :mod:`jaxwalk.analyses`).
+        Arrays with the grid's shape ``S`` in front: the gait's outputs
+        (:mod:`jaxwalk.analyses.gait`, each cast to its declared dtype:
+        ``status`` int8, ``lambda_max``, ``eigenvalues`` complex ``S + (n_v,)``,
+        ``fixed_point`` ``S + (n_v,)``, ``period``, ``step_length``, ``speed``,
+        ``work``, ``cost_of_transport``, ``newton_iterations`` int32), the
+        step-to-step ``jacobian`` ``S + (n_v, n_v)`` (not written to a
+        dataset); and the outputs of the analyses ``options`` asks for
+        (:func:`_beyond_the_gait`; their declarations are :mod:`jaxwalk.analyses`).
     """
     params = parameter_grid(model, fixed, grid)
     axes = list(grid)
@@ -229,19 +231,9 @@ def analyse_chunk(
             return np.moveaxis(x, len(shape) - 1, k)
 
     gaits = jax.tree_util.tree_map(unflatten, gaits)
-    out = {  # the gait's own outputs
-        "status": gaits.status.astype(np.int8),
-        "lambda_max": gaits.lambda_max,
-        "eigenvalues": gaits.eigenvalues,
-        "fixed_point": gaits.v,
-        "jacobian": gaits.jacobian,
-        "period": gaits.period,
-        "step_length": gaits.step_length,
-        "speed": gaits.speed,
-        "work": gaits.work,
-        "cost_of_transport": gaits.cost_of_transport,
-        "newton_iterations": gaits.iterations.astype(np.int32),
-    }
+    out = {o.name: np.asarray(getattr(gaits, o.source)).astype(o.dtype) for o in GAIT_OUTPUTS}
+    # Not a dataset variable: the attractor search starts from it (Block.results).
+    out["jacobian"] = gaits.jacobian
     out.update(_beyond_the_gait(model, params, gaits, out, options))
     return out
 

@@ -64,6 +64,9 @@ class Output:
             how hard Newton tried); otherwise it is :meth:`missing` there.
         attrs: further attributes: a mapping, or ``(resolved, units) -> mapping``
             for those that depend on the analysis's settings.
+        source: the field of the analysis's own result it is read from (the
+            gait's: an attribute of :class:`jaxwalk.gait.Gait`, ``"v"`` for
+            ``fixed_point``); default (``None``) its name.
     """
 
     name: str
@@ -80,6 +83,11 @@ class Output:
     plot: int | None = None
     always: bool = False
     attrs: Mapping[str, Any] | Attrs = dataclasses.field(default_factory=dict)
+    source: str | None = None
+
+    def __post_init__(self):
+        if self.source is None:
+            object.__setattr__(self, "source", self.name)
 
     @property
     def is_complex(self) -> bool:

@@ -74,8 +74,8 @@ class GaitMetrics(NamedTuple):
         speed: step length / period (model length / time units).
         step_length: model length units.
         period: model time units.
-        cost_of_transport: actuator work per step / (total weight x step length)
-            (dimensionless); NaN where the engine does not report work.
+        cost_of_transport: actuator work per step (:attr:`jaxwalk.stepbase.StepResult.work`)
+            / (:meth:`~jaxwalk.walker.Walker.weight` x step length), dimensionless; 0 for a passive walker.
         modulus_gap: ``(|mu_1| - |mu_k|) / |mu_1|`` for the largest eigenvalue
             ``mu_k`` that is not ``mu_1``'s conjugate (0: ``lambda_max`` has a kink).
         status: int8 :class:`~jaxwalk.status.Status` (the search's, or
@@ -103,8 +103,7 @@ def _map_and_jacobian(model: Walker, solver: SolverOptions, v: Array, params):
 
     def f(v_):
         v_next, res = step_map(model, v_, params, solver)
-        work = getattr(res, "work", jnp.full((), jnp.nan, v_.dtype))  # NaN where the engine records no work
-        return v_next, (res.time, res.length, work)
+        return v_next, (res.time, res.length, res.work)
 
     v_next, jac, (period, length, work) = value_and_jacfwd(f, v)
     return v_next, jac, period, length, work
@@ -218,12 +217,12 @@ def gait_metrics(
         jnp.where(ok, gait.jacobian, 0.0),
         gait.period,
         gait.step_length,
-        getattr(gait, "work", nan),
+        gait.work,
     )
     at = jax.lax.stop_gradient(at)
     v, jac, period, length, work = _gait_point(model, solver, params, at)
     lam = spectral_radius(jac)
-    weight = model.weight(params) if hasattr(model, "weight") else nan
+    weight = model.weight(params)
 
     eye = jnp.eye(v0.shape[0], dtype=v0.dtype)
     jac0 = at[1]

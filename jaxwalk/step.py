@@ -92,6 +92,19 @@ def end_phase(model: Walker, params, t0, y0, phase, ctx, solved, n_events, opts:
     return close_phase(model, params, t_event, y_event, result, phase, ctx, n_events, opts)
 
 
+class _PhaseLoop(NamedTuple):
+    """The carry of :func:`run_step`'s loop, one iteration per phase (scalars but ``y``, ``ctx``)."""
+
+    t: Array  # time since the step began (model time units)
+    y: Array  # (2 n_q,) state at the start of the current phase
+    phase: Array  # int32
+    ctx: Array  # (n_ctx,)
+    length: Array  # distance the stance foot has moved so far
+    status: Array  # int8; IN_PROGRESS while the step goes on
+    n_events: Array  # int32, events so far
+    work: Array  # actuator work so far (model energy units)
+
+
 def run_step(model: Walker, params, y0: Array, phase0: Array, ctx0: Array, opts: SolverOptions = SolverOptions()) -> StepResult:
     """Run one step from a full state. Pure; ``jit``/``vmap``/``jacfwd`` ready.
 
@@ -108,32 +121,33 @@ def run_step(model: Walker, params, y0: Array, phase0: Array, ctx0: Array, opts:
         raise ValueError(f"SolverOptions.engine must be 'nested' or 'flat', got {opts.engine!r}")
     in_progress = jnp.asarray(Status.IN_PROGRESS, jnp.int8)
 
-    def cond(carry):
-        return carry[5] == in_progress
+    def cond(c: _PhaseLoop):
+        # close_phase ends the step (TOO_MANY_EVENTS) at max_events events, so
+        # the bound never decides alone; it shows how long the loop can run.
+        return (c.status == in_progress) & (c.n_events < opts.max_events)
 
-    def body(carry):
-        t, y, phase, ctx, length, status, n_events, work = carry
-        solved = _solve_phase(model, params, y, phase, ctx, t, opts)
-        end = end_phase(model, params, t, y, phase, ctx, solved, n_events, opts)
+    def body(c: _PhaseLoop) -> _PhaseLoop:
+        solved = _solve_phase(model, params, c.y, c.phase, c.ctx, c.t, opts)
+        end = end_phase(model, params, c.t, c.y, c.phase, c.ctx, solved, c.n_events, opts)
         # Work over the phase, from its start to the event (before the reset,
         # which may relabel the legs); impacts do not move the joints.
-        work = work + model.actuator_work(y, end.y_event, params)
-        length = length + end.shift
-        return (end.t_event, end.y_next, end.phase_next, end.ctx_next, length, end.status, end.n_events, work)
+        work = c.work + model.actuator_work(c.y, end.y_event, params)
+        return _PhaseLoop(end.t_event, end.y_next, end.phase_next, end.ctx_next, c.length + end.shift, end.status,
+                          end.n_events, work)
 
     dtype = y0.dtype
-    carry0 = (
-        jnp.zeros((), dtype),
-        y0,
-        jnp.asarray(phase0, jnp.int32),
-        ctx0,
-        jnp.zeros((), dtype),
-        in_progress,
-        jnp.zeros((), jnp.int32),
-        jnp.zeros((), dtype),
+    c0 = _PhaseLoop(
+        t=jnp.zeros((), dtype),
+        y=y0,
+        phase=jnp.asarray(phase0, jnp.int32),
+        ctx=ctx0,
+        length=jnp.zeros((), dtype),
+        status=in_progress,
+        n_events=jnp.zeros((), jnp.int32),
+        work=jnp.zeros((), dtype),
     )
-    t, y, phase, ctx, length, status, n_events, work = jax.lax.while_loop(cond, body, carry0)
-    return StepResult(y, ctx, phase, t, length, status, n_events, work)
+    c = jax.lax.while_loop(cond, body, c0)
+    return StepResult(c.y, c.ctx, c.phase, c.t, c.length, c.status, c.n_events, c.work)
 
 
 def step_map(model: Walker, v: Array, params, opts: SolverOptions = SolverOptions(), ground_drop: Array | float = 0.0):

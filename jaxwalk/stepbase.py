@@ -57,6 +57,11 @@ class SolverOptions:
     engine: str = dataclasses.field(default_factory=lambda: os.environ.get("JAXWALK_ENGINE", "nested"))
     event_iterations: int = 8
 
+    def __post_init__(self):
+        # run_step's loop is bounded by max_events (its condition); a step has at least one event.
+        if self.max_events < 1:
+            raise ValueError(f"SolverOptions.max_events must be >= 1, got {self.max_events}")
+
     def make_solver(self):
         return {"dopri8": diffrax.Dopri8, "tsit5": diffrax.Tsit5, "dopri5": diffrax.Dopri5}[self.solver]()
 

@@ -71,25 +71,36 @@ class StepDownResult(NamedTuple):
     failed_at: Array
 
 
+class _Walk(NamedTuple):
+    """The carry of :func:`step_down_trial`'s loop, one iteration per step."""
+
+    y: Array  # (2 n_q,) state at the start of the next step
+    phase: Array  # int32
+    ctx: Array  # (n_ctx,)
+    status: Array  # int8, the last step's
+    steps: Array  # int32, steps completed, the drop step included
+
+
 def step_down_trial(
     model: Walker, params, v_star: Array, h: Array, n_steps: int, solver: SolverOptions = SolverOptions()
 ) -> StepDownTrial:
-    """Drop the ground by ``h`` at the next touchdown from ``v*``; walk ``n_steps`` more."""
+    """Drop the ground by ``h`` at the next touchdown from ``v*``; walk ``n_steps`` more.
+
+    ``model`` needs the step-down capability (:meth:`jaxwalk.walker.Walker.with_ground_drop`).
+    """
     y, phase, ctx = model.section_to_state(v_star, params)
-    ctx = ctx.at[model.ctx_index("ground_next")].set(-h * jnp.cos(params["gamma"]))
+    ctx = model.with_ground_drop(ctx, params, h)
     ok = jnp.int8(Status.OK)
 
-    def cond(carry):
-        _, _, _, status, k = carry
-        return (status == ok) & (k < n_steps + 1)
+    def cond(c: _Walk):
+        return (c.status == ok) & (c.steps < n_steps + 1)
 
-    def body(carry):
-        y, phase, ctx, _, k = carry
-        res = run_step(model, params, y, phase, ctx, solver)
-        return res.y, res.phase, res.ctx, res.status, k + jnp.where(res.status == ok, 1, 0)
+    def body(c: _Walk) -> _Walk:
+        res = run_step(model, params, c.y, c.phase, c.ctx, solver)
+        return _Walk(res.y, res.phase, res.ctx, res.status, c.steps + jnp.where(res.status == ok, 1, 0))
 
-    _, _, _, status, k = jax.lax.while_loop(cond, body, (y, phase, ctx, ok, jnp.zeros((), jnp.int32)))
-    return StepDownTrial(status == ok, status, k)
+    c = jax.lax.while_loop(cond, body, _Walk(y=y, phase=phase, ctx=ctx, status=ok, steps=jnp.zeros((), jnp.int32)))
+    return StepDownTrial(c.status == ok, c.status, c.steps)
 
 
 def h_max(

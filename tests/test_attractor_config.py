@@ -54,3 +54,15 @@ def test_bifurcations_key():
         loads_config(BASE + "bifurcations = 1")
     with pytest.raises(ConfigError, match="needs a continuation axis"):
         loads_config(BASE + "bifurcations = true\ncontinuation = false")
+
+
+def test_loop_bounds_are_at_least_one():
+    """The walk's and the step's loops stop at these bounds (their conditions): a zero is refused."""
+    from jaxwalk.attractor import AttractorOptions
+    from jaxwalk.step import SolverOptions
+
+    with pytest.raises(ValueError, match="steps must be >= 1"):
+        AttractorOptions(steps=0)
+    with pytest.raises(ValueError, match="max_events must be >= 1"):
+        SolverOptions(max_events=0)
+    assert AttractorOptions(steps=1).steps == 1 and SolverOptions(max_events=1).max_events == 1

@@ -59,6 +59,26 @@ def test_bad_config_is_one_line(old, new, message):
     assert message in text and "\n" not in text and text.startswith("t.toml: ")
 
 
+@pytest.mark.parametrize("field", ["objective", "hold"])
+def test_a_quantity_the_model_cannot_compute_is_refused_at_config_time(monkeypatch, field):
+    """The gait sensitivity norm needs a step-down: refused while parsing, in one line, nothing traced."""
+    from jaxwalk.models import MODELS
+
+    bare = type("SimplestWithoutStepDown", (type(MODELS["simplest"]),), {"ground_next": None})()
+    change = ('objective = "lambda_max"', 'objective = "gait_sensitivity_norm"') if field == "objective" else \
+        ("iterations = 5", "iterations = 5\nhold = { gait_sensitivity_norm = 0.5 }")
+    text = GOOD.replace(*change)
+    assert parse(text).problem.names == ("gamma",)  # the registered model has a step-down
+    monkeypatch.setitem(MODELS, "simplest", bare)
+    with pytest.raises(ConfigError) as err:
+        parse(text)
+    assert str(err.value) == (
+        f"t.toml: [optimize] {field} 'gait_sensitivity_norm' needs gait_sensitivity: model 'simplest' "
+        "has no step-down (no 'ground_next' in its context)"
+    )
+    parse(GOOD)  # a quantity of the gait alone needs nothing
+
+
 def test_cli_bad_input_exits_2_and_writes_nothing(write_toml, run_cli, tmp_path, capsys):
     from jaxwalk.cli import main
 

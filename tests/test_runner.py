@@ -78,6 +78,34 @@ def fake_results(shape=(4,), n_v=3, **changes):
     return out
 
 
+def test_every_gait_output_is_read_from_a_gait_field():
+    """``analyse_chunk`` reads each gait output from the ``Gait`` field its ``source`` names."""
+    from jaxwalk.gait import Gait
+    from jaxwalk.outputs import Output
+
+    missing = [o.source for o in gait.OUTPUTS if o.source not in Gait._fields]
+    assert not missing
+    assert Output("x", "float64", "an output").source == "x"
+    assert {o.name: o.source for o in gait.OUTPUTS}["fixed_point"] == "v"
+
+
+def test_the_fake_analysis_follows_the_declared_gait_outputs(monkeypatch, fake_analysis):
+    """A new gait output reaches the fake with its declared shape and dtype, no edit of the fake."""
+    from jaxwalk.grid import AnalysisOptions
+    from jaxwalk.models import get_model
+    from jaxwalk.outputs import Output
+
+    extra = Output("extra_metric", "float64", "a metric declared in a test", trailing=("section",))
+    monkeypatch.setattr(gait, "OUTPUTS", gait.OUTPUTS + (extra,))
+    model = get_model("compass")
+    n_v = len(model.section_names)
+    out = fake_analysis(fail_above=0.03)(model, {}, {"gamma": np.array([0.02, 0.04])}, None, AnalysisOptions())
+    assert list(out) == [o.name for o in gait.OUTPUTS]
+    assert all(out[o.name].dtype == np.dtype(o.dtype) for o in gait.OUTPUTS)
+    assert out["extra_metric"].shape == (2, n_v)
+    assert np.isfinite(out["extra_metric"][0]).all() and np.isnan(out["extra_metric"][1]).all()
+
+
 def test_nan_with_status_ok_becomes_nonfinite():
     period = np.ones(4)
     period[1] = np.nan

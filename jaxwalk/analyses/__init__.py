@@ -109,10 +109,15 @@ def declared() -> Iterator[Output]:
         yield from a.outputs(a.fullest())
 
 
+def plotted() -> tuple[str, ...]:
+    """The outputs drawn by default, in drawing order (:attr:`~jaxwalk.outputs.Output.plot`)."""
+    return tuple(o.name for o in sorted((o for o in declared() if o.plot is not None), key=lambda o: o.plot))
+
+
 def output(name: str) -> Output | None:
     """The declaration of a dataset variable or result named ``name``, if any."""
     return next((o for o in declared() if o.name == name), None)
 
 
 __all__ = ["Analysis", "Block", "active", "active_settings", "check_block", "declared", "did_you_mean", "keys", "output",
-           "outputs", "plugins", "registry", "sizes", "template", "variables"]
+           "outputs", "plotted", "plugins", "registry", "sizes", "template", "variables"]

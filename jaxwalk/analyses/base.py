@@ -139,6 +139,11 @@ class Analysis:
         """A setting under which :meth:`outputs` lists every output it can write (plots, docs)."""
         return True
 
+    def key_of(self, output: str) -> str:
+        """The ``[analysis]`` key that switches on the output named ``output`` (what
+        :func:`jaxwalk.walker.check_supported` reads the capability it needs under)."""
+        return self.keys[0] if self.keys else self.name
+
     def check_model(self, resolved: Any, model, fail) -> None:
         """Refuse a model the analysis cannot run on (``fail(message)``); default: any."""
 

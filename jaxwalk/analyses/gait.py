@@ -1,6 +1,7 @@
 """The periodic gait's outputs: what every sweep computes at every grid point.
 
-Its program is the grid's own (:func:`jaxwalk.grid.analyse_chunk`); its one
+Its program is the grid's own (:func:`jaxwalk.grid.analyse_chunk`, which reads
+each output from the :class:`jaxwalk.gait.Gait` field its ``source`` names); its one
 setting is ``[analysis] stability`` (without it ``lambda_max`` and the
 eigenvalues need not be finite and are written as NaN).
 """
@@ -26,7 +27,7 @@ OUTPUTS = (
     Output("eigenvalues", "complex128", "the eigenvalues of the step-to-step Jacobian", "eigenvalue",
            trailing=("eigen",), **_FINITE),
     Output("fixed_point", "float64", "fixed point of the step map in section coordinates (names in 'section')",
-           "fixed point", units=None, trailing=("section",), **_FINITE),
+           "fixed point", units=None, trailing=("section",), source="v", **_FINITE),
     Output("period", "float64", "duration of one step", "step period", units="{time}", label="step period",
            meaning="duration of one step", differentiable=True, **_FINITE),
     Output("step_length", "float64", "distance the stance foot advances in one step, along the slope", "step length",
@@ -46,7 +47,7 @@ OUTPUTS = (
         )},
     ),
     Output("newton_iterations", "int32", "Newton iterations used to find the fixed point", "Newton iterations",
-           always=True),
+           always=True, source="iterations"),
 )
 #: Without stability these are neither required nor written.
 _STABILITY = ("lambda_max", "eigenvalues")

@@ -153,6 +153,9 @@ class GlobalStability(Analysis):
     def fullest(self):
         return {"gait_sensitivity": {}, "mfpt": {}}
 
+    def key_of(self, output: str) -> str:
+        return "gait_sensitivity" if output == GSN.name else "mfpt"
+
     def gradient(self, quantity: str, model, names: tuple[str, ...], solver, newton):
         from jaxwalk.global_stability.sensitivity_norm import norm_and_gradient
 

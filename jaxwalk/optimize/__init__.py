@@ -1,22 +1,18 @@
 """Gradient-based optimisation of gait metrics (``jaxwalk optimize``; docs/optimize.md)."""
 
-from jaxwalk.optimize.config import OptimizeConfig, load_optimize_config, parse_optimize_config
-from jaxwalk.optimize.engine import QUANTITIES, Path, Problem, optimise, sensitivity_program
-from jaxwalk.optimize.output import build_dataset, run_optimize, summary
-
-__all__ = [
-    "OptimizeConfig",
-    "Path",
-    "Problem",
-    "QUANTITIES",
-    "build_dataset",
-    "load_optimize_config",
-    "optimise",
-    "parse_optimize_config",
-    "run_optimize",
-    "sensitivity_program",
-    "summary",
-]
+from jaxwalk.optimize.config import (
+    OptimizeConfig as OptimizeConfig,
+    load_optimize_config as load_optimize_config,
+    parse_optimize_config as parse_optimize_config,
+)
+from jaxwalk.optimize.engine import (
+    QUANTITIES as QUANTITIES,
+    Path as Path,
+    Problem as Problem,
+    optimise as optimise,
+    sensitivity_program as sensitivity_program,
+)
+from jaxwalk.optimize.output import build_dataset as build_dataset, run_optimize as run_optimize, summary as summary
 
 # jaxwalk.optimize(config, out=None, ...) runs it from a notebook (jaxwalk.api.optimize).
 from jaxwalk._callable import make_callable as _make_callable  # noqa: E402

@@ -37,7 +37,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from jaxwalk.optimize.engine import OPTIMIZERS, QUANTITIES, Problem
+from jaxwalk.optimize.engine import OPTIMIZERS, OWNERS, QUANTITIES, Problem
 from jaxwalk.sweep.config import (
     SOLVER_KEYS,
     ConfigError,
@@ -52,6 +52,7 @@ from jaxwalk.sweep.config import (
     parse_toml,
     read_config_text,
 )
+from jaxwalk.walker import check_supported
 
 TOP_LEVEL_KEYS = ("name", "model", "params", "optimize", "starts", "heatmap", "analysis")
 OPTIMIZE_KEYS = ("objective", "bounds", "iterations", "learning_rate", "optimizer", "hold", "penalty", "dual_every", "max_retries")
@@ -157,6 +158,7 @@ def parse_optimize_config(data: Mapping[str, Any], *, source: str = "<config>", 
     if not table:
         raise fail("[optimize] is missing or empty: give at least bounds = { <parameter> = [lower, upper] }")
     problem = _problem(table, specs, params, model_name, fail)
+    _check_capabilities(problem, model, fail)
     starts, start_fixed = _starts(data.get("starts", {}), problem, specs, params, model_name, fail)
     heatmap, continuation = _heatmap(data.get("heatmap", {}), specs, model_name, fail)
     solver = _solver(data.get("analysis", {}), fail)
@@ -231,6 +233,16 @@ def _problem(table, specs, params, model_name, fail) -> Problem:
         names=tuple(names), lower=tuple(lower), upper=tuple(upper), objective=objective.lstrip("-"),
         sign=-1.0 if objective.startswith("-") else 1.0, hold={q: float(t) for q, t in hold.items()}, **settings,
     )
+
+
+def _check_capabilities(problem: Problem, model, fail) -> None:
+    """Refuse, in one line, an objective or held quantity whose analysis needs a
+    capability the model lacks (the gait sensitivity norm: a step-down), as a
+    sweep asking for that analysis is refused (:func:`jaxwalk.walker.check_supported`)."""
+    named = [("objective", problem.objective)] + [("hold", q) for q in problem.hold]
+    for field, q in named:
+        if q in OWNERS:
+            check_supported(model, {OWNERS[q].key_of(q): True}, fail, where=f"[optimize] {field} '{q}' needs")
 
 
 def _starts(table, problem: Problem, specs, params, model_name, fail):

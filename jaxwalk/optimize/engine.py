@@ -50,10 +50,11 @@ from jaxwalk.status import Status
 from jaxwalk.step import SolverOptions
 from jaxwalk.walker import Walker
 
-#: The analyses beside the gait that declare a differentiable output, by output.
-_OWNERS = {o.name: a for a in analyses.plugins() for o in a.outputs(a.fullest()) if o.differentiable}
+#: The analyses beside the gait that declare a differentiable output, by output
+#: (each computes its own, and may need a model capability: :meth:`~jaxwalk.analyses.base.Analysis.key_of`).
+OWNERS = {o.name: a for a in analyses.plugins() for o in a.outputs(a.fullest()) if o.differentiable}
 #: Quantities computed only when the problem names them (:func:`extra_program`).
-EXTRA_QUANTITIES = tuple(_OWNERS)
+EXTRA_QUANTITIES = tuple(OWNERS)
 #: Quantities an objective or a held value may name: every output declared
 #: ``differentiable`` (the gait's from :func:`jaxwalk.sensitivity.gait_sensitivity`).
 QUANTITIES = tuple(o.name for o in gait.OUTPUTS if o.differentiable) + EXTRA_QUANTITIES
@@ -64,7 +65,7 @@ def extra_program(model: Walker, names: tuple[str, ...], solver: SolverOptions, 
     """``jit(vmap)``: ``(params batch, v0) -> {quantity: (value (B,), gradient (B, n_p))}`` for
     :data:`EXTRA_QUANTITIES`, each by its analysis (:meth:`jaxwalk.analyses.base.Analysis.gradient`;
     the gait sensitivity norm: :mod:`jaxwalk.global_stability.sensitivity_norm`)."""
-    fns = {q: a.gradient(q, model, names, solver, newton) for q, a in _OWNERS.items()}
+    fns = {q: a.gradient(q, model, names, solver, newton) for q, a in OWNERS.items()}
     return jax.jit(jax.vmap(lambda p, v0: {q: f(p, v0) for q, f in fns.items()}))
 
 

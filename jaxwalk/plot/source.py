@@ -24,7 +24,7 @@ from jaxwalk.sweep.integrity import check_complete
 #: The variables drawn by default, in this order, when the dataset has them with values:
 #: those whose declaration ranks them (:attr:`jaxwalk.outputs.Output.plot`; stability
 #: measures first); those of the analyses beside the gait only where they ran.
-DEFAULT_VARIABLES = tuple(o.name for o in sorted((o for o in analyses.declared() if o.plot is not None), key=lambda o: o.plot))
+DEFAULT_VARIABLES = analyses.plotted()
 
 
 class PlotError(ConfigError):

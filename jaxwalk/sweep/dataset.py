@@ -53,10 +53,7 @@ def output_units(model: Walker) -> dict[str, str]:
 
 
 def units_note(model: Walker) -> str:
-    """One sentence on the unit system of a model's numbers."""
-    declared = getattr(model, "units_note", None)
-    if declared:
-        return declared
+    """One sentence on the unit system of a model's numbers (:func:`output_units`)."""
     u = output_units(model)
     if u["length"] == "1":
         return (
