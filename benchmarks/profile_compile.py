@@ -29,7 +29,6 @@ else:
 t = time.time(); low = jax.jit(f).lower(*args); print("trace+lower", round(time.time() - t, 1), flush=True)
 txt = low.as_text()
 print("stablehlo lines", txt.count("\n"), "while", txt.count("stablehlo.while"), "case", txt.count("stablehlo.case"), "custom_call", txt.count("custom_call"), flush=True)
-open(f"/work/prof/ff_{engine}{'_jvp' if jvp else ''}.mlir", "w").write(txt)
 t = time.time(); c = low.compile(); print("compile", round(time.time() - t, 1), flush=True)
 best = 1e9
 for _ in range(5):
