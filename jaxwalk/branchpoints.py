@@ -200,11 +200,13 @@ def _table(rows: list[dict], n_v: int, k: int) -> BranchPoints:
     )
 
 
-def switch_direction(point_v: np.ndarray, eigenvector: np.ndarray, parameter: float, sign: float = 1.0):
-    """``(u*, t0)``: the flip point ``(v*, p*)`` and the unit direction ``(sign w, 0)`` of the period-doubled branch."""
-    u = np.concatenate([np.asarray(point_v, np.float64), [float(parameter)]])
-    t0 = np.concatenate([sign * np.asarray(eigenvector, np.float64), [0.0]])
-    return u, t0 / np.linalg.norm(t0)
+def switch_direction(point_v, eigenvector, parameter, sign=1.0):
+    """``(u*, t0)``: the flip point ``(v*, p*)`` and the unit direction ``(sign w, 0)`` of the
+    period-doubled branch (JAX arrays; traceable, so :func:`switch_at_flip` vmaps)."""
+    v = jnp.asarray(point_v, jnp.float64)
+    u = jnp.concatenate([v, jnp.asarray(parameter, v.dtype)[None]])
+    t0 = jnp.concatenate([sign * jnp.asarray(eigenvector, v.dtype), jnp.zeros(1, v.dtype)])
+    return u, t0 / jnp.linalg.norm(t0)
 
 
 def switch_at_flip(problem: CycleProblem, params, v: np.ndarray, eigenvector: np.ndarray, parameter: float,
@@ -218,5 +220,4 @@ def switch_at_flip(problem: CycleProblem, params, v: np.ndarray, eigenvector: np
     """
     u, t0 = switch_direction(v, eigenvector, parameter, sign)
     doubled = dataclasses.replace(problem, k=2 * problem.k)
-    return continue_branch(doubled, params, jnp.asarray(u[:-1]), jnp.asarray(u[-1]), jnp.asarray(t0),
-                           jnp.asarray(eps), p_min, p_max, options)
+    return continue_branch(doubled, params, u[:-1], u[-1], t0, jnp.asarray(eps, u.dtype), p_min, p_max, options)
