@@ -44,3 +44,43 @@ def test_cli_bad_config_exits_2_with_one_line(tmp_path, capsys):
     assert cli.main(["continue", str(path), "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "ds_min <= ds" in err and not (tmp_path / "out").exists()
+
+
+def _fake_run():
+    """A hand-made period-1 and period-2 branch (3 section coordinates) and one flip label."""
+    import numpy as np
+
+    from jaxwalk.arclength import Branch, Stop
+    from jaxwalk.bifurcation import Kind
+    from jaxwalk.branchpoints import BranchPoints
+
+    n, p = 5, np.linspace(0.01, 0.02, 5)
+    lam = np.stack([np.linspace(0.6, 1.4, n), np.linspace(0.9, 0.5, n)])
+    mu = np.zeros((2, n, 3), complex)
+    mu[..., 0] = -lam
+    branch = Branch(stop=np.array([Stop.PARAMETER_BOUND] * 2, np.int8), failure=np.zeros(2, np.int8), n_points=np.full(2, n, np.int32),
+                    attempts=np.full(2, n, np.int32), p=np.stack([p, p]), v=np.ones((2, n, 3)), tangent=np.ones((2, n, 4)),
+                    multipliers=mu, lambda_max=lam, ds=np.ones((2, n)), iterations=np.ones((2, n), np.int32), status=np.zeros((2, n), np.int8))
+    labels = BranchPoints(kind=np.array([Kind.FLIP], np.int8), parameter=np.array([0.015]), branch=np.array([0], np.int32),
+                          index=np.array([2], np.int32), period=np.array([1], np.int32), status=np.zeros(1, np.int8),
+                          v=np.ones((1, 3)), multipliers=np.array([[-1, 0.2, 0]], complex), eigenvector=np.ones((1, 3)), s=np.zeros(1))
+    return branch, labels, np.array([1, 2], np.int32), np.array([-1, 0], np.int32)
+
+
+def test_dataset_is_self_describing_and_plots(tmp_path, capsys):
+    import xarray as xr
+
+    from jaxwalk.branches.run import build_dataset
+    from jaxwalk.sweep.dataset import write_zarr
+
+    config = load_continue_config("sweeps/continue_simplest.toml")
+    path = write_zarr(build_dataset(config, *_fake_run(), command="test"), tmp_path / "c_branches.zarr")
+    ds = xr.open_zarr(path)
+    assert ds.attrs["kind"] == "continuation" and ds.attrs["continuation_units"] == "rad" and "jaxwalk_version" in ds.attrs
+    assert "parameter_bound" in ds["stop"].attrs["flag_meanings"] and "flip" in ds["label_kind"].attrs["flag_meanings"]
+    assert ds["stable"].values[0].tolist() == [True, True, False, False, False]
+    assert cli.main(["plot", str(path), "--out", str(tmp_path), "--vars", "lambda_max", "v0"]) == 0
+    assert (tmp_path / "continue_simplest_bifurcation_lambda_max.png").stat().st_size > 1000
+    assert (tmp_path / "continue_simplest_bifurcation_v0.png").exists()
+    assert cli.main(["plot", str(path), "--vars", "speed"]) == 2
+    assert "unknown quantity 'speed'" in capsys.readouterr().err

@@ -21,7 +21,7 @@ def quantity(ds: xr.Dataset, name: str) -> tuple[np.ndarray, str]:
         return ds["lambda_max"].values, "lambda_max (largest multiplier modulus of the k-step map)"
     if name.startswith("v") and name[1:].isdigit() and int(name[1:]) < ds.sizes["section"]:
         i = int(name[1:])
-        return ds["v"].values[..., i], f"{ds['section'].values[i]} (fixed point)"
+        return ds["v"].values[..., i], f"{ds.attrs['section_names'].split()[i]} (fixed point)"
     raise ValueError(f"unknown quantity '{name}' (known: lambda_max, v0 ... v{ds.sizes['section'] - 1})")
 
 

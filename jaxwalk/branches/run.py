@@ -136,8 +136,8 @@ def build_dataset(config: ContinueConfig, branches: Branch, labels: BranchPoints
         "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
         **{f"{name}_version": v for name, v in package_versions().items()},
     }
-    coords = {"section": list(model.section_names)}
-    return xr.Dataset({k: (d, np.asarray(x), a) for k, (d, x, a) in data.items()}, coords=coords, attrs=attrs)
+    # Section names as an attribute: a string coordinate has no zarr v3 data type yet.
+    return xr.Dataset({k: (d, np.asarray(x), a) for k, (d, x, a) in data.items()}, attrs=attrs)
 
 
 def run_continue(config: ContinueConfig, out: str | Path, *, overwrite: bool = False, command: str | None = None):
