@@ -54,6 +54,7 @@ class Kind(enum.IntEnum):
     NEIMARK_SACKER = 3
     GRAZING = 4
     LOST = 5
+    BRANCH_POINT = 6
 
 
 KIND_MEANINGS = {
@@ -62,6 +63,7 @@ KIND_MEANINGS = {
     Kind.NEIMARK_SACKER: "Neimark-Sacker: a complex pair of multipliers through the unit circle",
     Kind.GRAZING: "grazing: the gait is lost where a step starts to fail (a guard reaches zero: scuffing, a fall, ...)",
     Kind.LOST: "the gait is lost (Newton fails beyond) with no multiplier near +1 and no failing step",
+    Kind.BRANCH_POINT: "branch point: a real multiplier through +1 where the branch does not turn (branches cross)",
 }
 
 

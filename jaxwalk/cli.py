@@ -4,8 +4,11 @@ Commands:
     sweep CONFIG.toml --out DIR   run a config-driven sweep (docs/sweeps.md)
     simulate CONFIG.toml --steps N --out DIR [--drop H]
                                   walk N steps, record the trajectory, draw it (docs/simulate.md)
+    continue CONFIG.toml --out DIR
+                                  pseudo-arclength branches of periodic gaits (docs/continuation.md)
     plot DATASET [--out DIR] [--vars VAR ...]
-                                  heatmaps and line plots of a sweep dataset (docs/plot.md)
+                                  heatmaps and line plots of a sweep dataset (docs/plot.md);
+                                  bifurcation diagrams of a continuation dataset
     optimize CONFIG.toml --out DIR [--heatmap DATASET]
                                   minimise lambda_max (or another metric) by gradients (docs/optimize.md)
     cache info|clear              the compiled and traced programs kept between runs (docs/cache.md)
@@ -156,6 +159,43 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+# ---------------------------------------------------------------- continue
+
+
+def _is_continuation(path: str) -> bool:
+    """Whether ``path`` is a ``jaxwalk continue`` dataset (its zarr attributes say kind = continuation)."""
+    import json
+    from pathlib import Path
+
+    meta = Path(path) / "zarr.json"
+    try:
+        return json.loads(meta.read_text()).get("attributes", {}).get("kind") == "continuation"
+    except (OSError, ValueError):
+        return False
+
+
+def add_continue(sub) -> None:
+    p = sub.add_parser("continue", help="pseudo-arclength branches of periodic gaits from a TOML config",
+                       description=cmd_continue.__doc__)
+    p.add_argument("config", metavar="CONFIG.toml", help="continuation config (docs/continuation.md)")
+    p.add_argument("--out", required=True, metavar="DIR", help="output directory")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing dataset")
+    p.set_defaults(run=cmd_continue)
+
+
+def cmd_continue(args: argparse.Namespace) -> int:
+    """Continue the period-k gaits of CONFIG.toml's model in one parameter through folds
+    (pseudo-arclength), locate folds, flips and Neimark-Sacker points on the branches,
+    optionally switch onto the period-2k branch at each flip; write DIR/<name>_branches.zarr."""
+    from jaxwalk.branches import load_continue_config
+    from jaxwalk.branches.run import run_continue
+
+    config = load_continue_config(args.config)
+    path, ds = run_continue(config, args.out, overwrite=args.overwrite, command=args.command_line)
+    print(f"wrote {path}: {ds.sizes['branch']} branches, {ds.sizes['label']} labelled points")
+    return EXIT_OK
+
+
 # ---------------------------------------------------------------- plot
 
 
@@ -193,6 +233,15 @@ def cmd_plot(args: argparse.Namespace) -> int:
     named by status; one file per figure, DIR/<name>_<variable>_<kind>.<format>."""
     from jaxwalk.plot import plot_dataset
 
+    if _is_continuation(args.dataset):
+        from jaxwalk.branches.diagram import plot_branches
+
+        for y in args.vars or ("lambda_max", "v0"):
+            try:
+                print(f"wrote {plot_branches(args.dataset, args.out, y, args.format)}")
+            except ValueError as err:
+                raise UsageError(str(err)) from None
+        return EXIT_OK
     paths = plot_dataset(
         args.dataset, args.out, fmt=args.format, partial=args.partial, variables=args.vars, kinds=args.kind, x=args.x, y=args.y, at=args.at or None
     )
@@ -296,7 +345,7 @@ def _one_line_warning(message, category, filename, lineno, file=None, line=None)
 # ---------------------------------------------------------------- parser
 
 #: The commands, in the order ``--help`` lists them.
-COMMANDS: tuple[Callable, ...] = (add_sweep, add_simulate, add_plot, add_optimize, add_cache)
+COMMANDS: tuple[Callable, ...] = (add_sweep, add_simulate, add_continue, add_plot, add_optimize, add_cache)
 
 
 def build_parser() -> argparse.ArgumentParser:
