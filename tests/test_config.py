@@ -346,9 +346,11 @@ def test_resolved_config_is_itself_a_valid_config():
         np.testing.assert_array_equal(again.grid[axis], cfg.grid[axis])
 
 
-# sweeps/simulate_*.toml are `jaxwalk simulate` configs (tests/test_simulate.py).
+# sweeps/simulate_*.toml are `jaxwalk simulate` configs (tests/test_simulate.py),
+# sweeps/continue_*.toml `jaxwalk continue` configs (tests/test_continue_config.py).
 @pytest.mark.parametrize(
-    "path", [p for p in sorted((ROOT / "sweeps").glob("*.toml")) if not p.name.startswith("simulate_")], ids=lambda p: p.name
+    "path", [p for p in sorted((ROOT / "sweeps").glob("*.toml")) if not p.name.startswith(("simulate_", "continue_"))],
+    ids=lambda p: p.name,
 )
 def test_bundled_configs_are_valid(path):
     cfg = load_config(path)
