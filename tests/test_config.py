@@ -356,3 +356,11 @@ def test_bundled_configs_are_valid(path):
     cfg = load_config(path)
     assert cfg.name == path.stem
     assert cfg.n_points >= 1
+
+
+@pytest.mark.parametrize("section, command", [("continuation", "jaxwalk continue"), ("optimize", "jaxwalk optimize")])
+def test_another_commands_config_names_that_command(section, command):
+    data = {"name": "c", "model": "simplest", section: {"parameter": "gamma"}}
+    with pytest.raises(ConfigError) as err:
+        parse_config(data, source="c.toml")
+    assert str(err.value) == f"c.toml: a [{section}] section makes this a '{command}' config, not a sweep: run {command} c.toml"

@@ -224,6 +224,10 @@ def parse_config(
 
     if not isinstance(data, Mapping):
         raise fail("a config must be a TOML table")
+    # Configs of the other commands, named by their own section.
+    for key, command in (("continuation", "jaxwalk continue"), ("optimize", "jaxwalk optimize")):
+        if isinstance(data.get(key), Mapping):
+            raise fail(f"a [{key}] section makes this a '{command}' config, not a sweep: run {command} {source}")
     for key in data:
         if key not in TOP_LEVEL_KEYS:
             kind = "section" if isinstance(data[key], Mapping) else "key"
