@@ -8,6 +8,8 @@ status it keeps.
 
 * :func:`walk_terrain`: a given drop sequence, every step recorded (the gait
   sensitivity norm's finite-difference check).
+* :func:`walk_until`: the walk loop itself (a drop per step, a stop rule on
+  the state; the basins' returns, :mod:`jaxwalk.global_stability.basin`);
 * :func:`steps_to_fall`: i.i.d. ``N(0, sigma^2)`` drops until the first failure
   or ``max_steps``; :func:`monte_carlo` runs thousands at once and estimates the
   mean number of completed steps before a fall (the MFPT's direct check, also
@@ -77,6 +79,49 @@ class FallResult(NamedTuple):
     status: Array
 
 
+class WalkEnd(NamedTuple):
+    """Where :func:`walk_until` stopped (batch shape in front under vmap).
+
+    Attributes:
+        v: ``(n_v,)`` the state after the last completed step (``v0`` if none).
+        steps: int32 steps completed.
+        status: int8 status of the failed step (``OK``: none failed).
+        stopped: ``stop(v)`` held after a completed step (the walk ended there).
+    """
+
+    v: Array
+    steps: Array
+    status: Array
+    stopped: Array
+
+
+def walk_until(model: Walker, params, v0: Array, max_steps: int, drop=None, stop=None,
+               solver: SolverOptions = SolverOptions()) -> WalkEnd:
+    """Walk from ``v0`` until a step fails, ``stop(v)`` holds after a completed step,
+    or ``max_steps`` steps are done (one walk; vmap it).
+
+    The one walker loop of this package: every walk here is it.
+
+    Args:
+        drop: ``drop(k) -> e_k``, step ``k``'s ground drop (model length units); default flat.
+        stop: ``stop(v) -> bool`` of the state after a completed step; default never.
+    """
+    ok = jnp.int8(Status.OK)
+
+    def cond(c: WalkEnd):
+        return (c.status == ok) & (c.steps < max_steps) & ~c.stopped
+
+    def body(c: WalkEnd) -> WalkEnd:
+        e = jnp.zeros((), v0.dtype) if drop is None else drop(c.steps)
+        v_next, res = step_map(model, c.v, params, solver, ground_drop=e)
+        good = res.status == ok
+        v = jnp.where(good, v_next, c.v)
+        stopped = jnp.asarray(False) if stop is None else good & stop(v)
+        return WalkEnd(v, c.steps + jnp.where(good, 1, 0), res.status.astype(jnp.int8), stopped)
+
+    return jax.lax.while_loop(cond, body, WalkEnd(v0, jnp.zeros((), jnp.int32), ok, jnp.asarray(False)))
+
+
 def steps_to_fall(
     model: Walker, params, v0: Array, key: Array, sigma, max_steps: int, solver: SolverOptions = SolverOptions()
 ) -> FallResult:
@@ -85,21 +130,9 @@ def steps_to_fall(
     Step ``k``'s drop is ``sigma * normal(fold_in(key, k))``: a walk's terrain
     depends only on its key, not on its batch neighbours.
     """
-    ok = jnp.int8(Status.OK)
-
-    def cond(carry):
-        _, k, status = carry
-        return (status == ok) & (k < max_steps)
-
-    def body(carry):
-        v, k, _ = carry
-        e = sigma * jax.random.normal(jax.random.fold_in(key, k), dtype=v0.dtype)
-        v_next, res = step_map(model, v, params, solver, ground_drop=e)
-        good = res.status == ok
-        return jnp.where(good, v_next, v), k + jnp.where(good, 1, 0), res.status.astype(jnp.int8)
-
-    _, k, status = jax.lax.while_loop(cond, body, (v0, jnp.zeros((), jnp.int32), ok))
-    return FallResult(k, status)
+    drop = lambda k: sigma * jax.random.normal(jax.random.fold_in(key, k), dtype=v0.dtype)  # noqa: E731
+    end = walk_until(model, params, v0, max_steps, drop=drop, solver=solver)
+    return FallResult(end.steps, end.status)
 
 
 class MonteCarlo(NamedTuple):
