@@ -33,6 +33,8 @@ class Status(enum.IntEnum):
     SLIPPING = 14
     NO_PERIODIC_ATTRACTOR = 15
     CYCLE_NOT_FOUND = 16
+    NOT_RETURNED = 17
+    UNSTABLE_GAIT = 18
     IN_PROGRESS = 127  # internal: a step still running; never written to a dataset
 
 
@@ -58,6 +60,11 @@ STATUS_MEANINGS: dict[Status, str] = {
         "without repeating at any tested period (quasi-periodic, chaotic, longer period, or too slow to settle)"
     ),
     Status.CYCLE_NOT_FOUND: "the walk repeated, but Newton on the k-step map found no stable genuine period-k cycle there",
+    Status.NOT_RETURNED: (
+        "not returned: walked every allowed step from the perturbed start without a failure, "
+        "but never came within tol of the gait's cycle (a slower return, another attractor, or none)"
+    ),
+    Status.UNSTABLE_GAIT: "the period-1 gait is unstable and no attractor of it is known: no basin to measure",
     Status.IN_PROGRESS: "internal: step in progress",
 }
 

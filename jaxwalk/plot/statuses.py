@@ -31,6 +31,8 @@ STATUS_COLORS: dict[int, str] = {
     Status.NOT_DIFFERENTIABLE: "#dbb98c",
     Status.NOT_COMPUTED: "#ffffff",  # blank: nothing there yet
     Status.SLIPPING: "#17becf",
+    Status.NOT_RETURNED: "#bcbd22",  # olive: walking, but not back on the gait
+    Status.UNSTABLE_GAIT: "#9e7b5a",
 }
 #: Fallback for a code this version does not know.
 UNKNOWN_COLOR = "#5c3c00"
@@ -51,6 +53,8 @@ STATUS_MARKERS: dict[int, str] = {
     Status.NOT_DIFFERENTIABLE: "p",
     Status.NOT_COMPUTED: "_",
     Status.SLIPPING: "d",
+    Status.NOT_RETURNED: "1",
+    Status.UNSTABLE_GAIT: "2",
 }
 
 

@@ -1,0 +1,198 @@
+"""``[analysis] basin``: the basin of attraction of each gait on the Poincare section.
+
+The measure is :mod:`jaxwalk.global_stability.basin` (its docstring defines the
+fate of a start, the scaled norm, the ball and the rays); this plug-in reads its
+settings, runs it on a block's gaits and declares its outputs (grid shape ``S``):
+
+* ``basin_status`` ``S``, int8 with CF flag attributes: 0 where measured; the
+  gait's status where there is no gait; ``unstable_gait`` (18) where the gait is
+  unstable and no attractor of it is known (``[analysis] attractors`` off), or the
+  attractor search's status where it found none;
+* ``basin_fraction``, ``basin_fraction_error`` ``S``: share of the ball's random
+  starts that returned to the gait's cycle within ``steps`` steps, and its binomial
+  standard error;
+* ``basin_radius`` ``S`` and ``basin_ray_radius`` ``S + (direction,)``: the
+  smallest ray radius, and each ray's (scaled norm, dimensionless).
+
+The target cycle is the gait where it is stable; with ``[analysis] attractors``
+on, the attractor cycle it settles on (so an unstable gait past a flip has the
+period-2 cycle's basin, measured from a ball about the unstable fixed point).
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from typing import Any
+
+import numpy as np
+
+from jaxwalk import outputs as schema
+from jaxwalk.analyses.base import Analysis, Block, did_you_mean, switch_table
+from jaxwalk.outputs import Output
+from jaxwalk.status import Status
+
+#: ``[analysis] basin`` keys and their defaults (those of :class:`jaxwalk.global_stability.basin.BasinOptions`).
+DEFAULTS: dict[str, Any] = {"radius": 0.01, "samples": 256, "steps": 60, "tol": 1e-4, "directions": 16, "scan": 8,
+                            "bisections": 10, "scale": None, "coordinates": None, "seed": 0}
+_POSITIVE = ("radius", "tol")
+_COUNTS = {"samples": 2, "steps": 1, "directions": 1, "scan": 1, "bisections": 0, "seed": 0}
+
+
+def _attrs(resolved, units) -> dict[str, Any]:
+    settings = {"scale": "1 for every coordinate", "coordinates": "all", **resolved}
+    return {
+        **{"basin_" + k: " ".join(map(str, v)) if isinstance(v, list) else v for k, v in settings.items()},
+        "norm": "sqrt(sum_i ((v_i - v*_i) / scale_i)^2) over the perturbed section coordinates (jaxwalk.global_stability.basin)",
+    }
+
+
+OUTPUTS = (
+    Output("basin_status", "int8", (
+        "outcome of the basin measure (0: measured; the gait's status where there is no gait; unstable_gait where "
+        "the gait is unstable and no attractor of it is known; the attractor search's status where it found none)"
+    ), units=None, flags=True),
+    Output("basin_fraction", "float64", (
+        "share of random starts uniform in a ball about the fixed point (scaled section norm) that return "
+        "to within tol of the gait's cycle in at most steps steps"
+    ), label="basin fraction", meaning="share of perturbed starts that return to the gait", plot=45,
+        finite_where_ok=True, attrs=_attrs),
+    Output("basin_fraction_error", "float64", "binomial standard error of basin_fraction, sqrt(f (1 - f) / samples)",
+           finite_where_ok=True),
+    Output("basin_radius", "float64", (
+        "radius of the largest ball about the fixed point inside the basin as the rays see it: the smallest "
+        "basin_ray_radius (scaled section norm)"
+    ), label="basin radius", meaning="distance to the basin's nearest edge along the rays", plot=46,
+        finite_where_ok=True, attrs=_attrs),
+    Output("basin_ray_radius", "float64", (
+        "along each ray from the fixed point, the largest radius confirmed to return before the first failing "
+        "one (scaled section norm; radius itself where no scanned start failed, a lower bound)"
+    ), trailing=("direction",), finite_where_ok=True),
+)
+
+
+@functools.lru_cache(maxsize=None)
+def _program(model, items: tuple, solver):
+    from jaxwalk.global_stability.basin import BasinOptions, basin_program
+
+    return basin_program(model, BasinOptions(**options_of_items(model, items)), solver)
+
+
+def options_of_items(model, items: tuple) -> dict[str, Any]:
+    """:class:`~jaxwalk.global_stability.basin.BasinOptions` fields from resolved ``(key, value)`` pairs
+    (coordinate names -> indices of ``model.section_names``)."""
+    fields = dict(items)
+    names = fields.pop("coordinates", None)
+    fields["coordinates"] = None if names is None else tuple(model.section_names.index(n) for n in names)
+    fields["scale"] = None if fields.get("scale") is None else tuple(fields["scale"])
+    return fields
+
+
+def parse_basin(value, fail, where: str = "[analysis] basin") -> dict[str, Any]:
+    """The resolved settings of a ``basin`` table (``{}``: the defaults), TOML/JSON-ready:
+    ``scale`` and ``coordinates`` appear only when given."""
+    out = {k: v for k, v in DEFAULTS.items() if v is not None}
+    for key, v in value.items():
+        if key in _POSITIVE:
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v < math.inf:
+                raise fail(f"{where}: {key} must be a positive number (scaled section norm), got {v!r}")
+            v = float(v)
+        elif key in _COUNTS:
+            if isinstance(v, bool) or not isinstance(v, int) or v < _COUNTS[key]:
+                raise fail(f"{where}: {key} must be an integer >= {_COUNTS[key]}, got {v!r}")
+        elif key == "scale":
+            if not isinstance(v, list) or not v or any(isinstance(x, bool) or not isinstance(x, (int, float)) or not 0 < x < math.inf for x in v):
+                raise fail(f"{where}: scale must be an array of positive numbers, one per section coordinate, got {v!r}")
+            v = [float(x) for x in v]
+        elif key == "coordinates":
+            if not isinstance(v, list) or not v or not all(isinstance(x, str) for x in v) or len(set(v)) != len(v):
+                raise fail(f"{where}: coordinates must be a non-empty array of distinct section coordinate names, got {v!r}")
+        out[key] = v
+    if out["tol"] >= out["radius"]:
+        raise fail(f"{where}: tol ({out['tol']}) must be below radius ({out['radius']})")
+    return out
+
+
+def check_section(resolved, model, fail, where: str = "[analysis] basin") -> None:
+    """``coordinates`` name section coordinates of ``model`` and ``scale`` has one entry per coordinate."""
+    names = tuple(model.section_names)
+    for n in resolved.get("coordinates") or ():
+        if n not in names:
+            raise fail(f"{where}: unknown section coordinate '{n}'{did_you_mean(n, names)} of the {model.name} model "
+                       f"(its section: {', '.join(names)})")
+    scale = resolved.get("scale")
+    if scale is not None and len(scale) != len(names):
+        raise fail(f"{where}: scale has {len(scale)} entries, the {model.name} model's section {len(names)} ({', '.join(names)})")
+
+
+def targets_of(block: Block) -> tuple[np.ndarray, np.ndarray]:
+    """``(codes, targets)``: per point ``OK`` where a stable cycle is known, else why not
+    (``S``, int8), and the cycle ``S + (P, n_v)`` (NaN rows beyond its period)."""
+    res = block.results
+    status = np.asarray(res["status"])
+    v = np.asarray(block.gaits.v)
+    if "attractor_points" in res:
+        codes = np.where(status != Status.OK, status, res["attractor_status"]).astype(np.int8)
+        return codes, np.asarray(res["attractor_points"])
+    stable = np.asarray(res["lambda_max"]) < 1.0
+    codes = np.where(status != Status.OK, status, np.where(stable, Status.OK, Status.UNSTABLE_GAIT)).astype(np.int8)
+    return codes, v[..., None, :]
+
+
+class BasinAnalysis(Analysis):
+    name = "basin"
+    keys = ("basin",)
+    order = 35
+    status_of_outputs = "basin_status"
+
+    def parse(self, table, fail, *, continuation):
+        """``false``/absent (off), ``true`` (the defaults) or a table of :data:`DEFAULTS`' keys."""
+        value = switch_table(table, "basin", tuple(DEFAULTS), fail, "{ radius = .., samples = .., steps = .. }")
+        return None if value is None else parse_basin(value, fail)
+
+    def check_model(self, resolved, model, fail) -> None:
+        if resolved is not None:
+            check_section(resolved, model, fail)
+
+    def fullest(self):
+        return dict(DEFAULTS)
+
+    def grid_options(self, resolved):
+        if resolved is None:
+            return None
+        return tuple((k, tuple(v) if isinstance(v, list) else v) for k, v in sorted(resolved.items()))
+
+    def compute(self, block: Block) -> dict[str, np.ndarray]:
+        items = self.options_of(block.options)
+        fields = dict(items)
+        codes, targets = targets_of(block)
+        shape, n_dir = block.shape, int(fields["directions"])
+        out = {"basin_status": codes.copy(), "basin_fraction": np.full(shape, np.nan),
+               "basin_fraction_error": np.full(shape, np.nan), "basin_radius": np.full(shape, np.nan),
+               "basin_ray_radius": np.full(shape + (n_dir,), np.nan)}
+        where = np.flatnonzero(codes.reshape(-1) == Status.OK)
+        if where.size:
+            rows = {k: x[where] for k, x in block.rows_at_gaits().items()}
+            rows["__targets__"] = targets.reshape((-1,) + targets.shape[len(shape):])[where]
+            found = block.run(_program(block.model, items, block.options.solver), rows)
+            for key, field in (("basin_fraction", "fraction"), ("basin_fraction_error", "fraction_error"),
+                               ("basin_radius", "radius"), ("basin_ray_radius", "ray_radius")):
+                flat = out[key].reshape((-1,) + out[key].shape[len(shape):])
+                flat[where] = np.asarray(getattr(found, field))
+        return out
+
+    def outputs(self, resolved=None) -> tuple[Output, ...]:
+        return OUTPUTS
+
+    def sizes(self, resolved, n_v: int) -> dict[str, int]:
+        return {"section": n_v, "eigen": n_v, "direction": int(resolved["directions"])}
+
+    def finalise(self, arrays, status, resolved) -> dict[str, np.ndarray]:
+        """The gait's status where it has none; ``NONFINITE`` where a measured number is not
+        finite; every number NaN wherever ``basin_status != 0``."""
+        codes = np.where(status != Status.OK, status, arrays["basin_status"]).astype(np.int8)
+        codes = schema.nonfinite(codes, arrays, OUTPUTS)
+        return {"basin_status": codes, **schema.blank(arrays, OUTPUTS, codes != Status.OK)}
+
+
+ANALYSIS = BasinAnalysis()

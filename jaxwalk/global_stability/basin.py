@@ -1,0 +1,225 @@
+"""Basins of attraction on the Poincare section (Schwab & Wisse 2001), batched.
+
+Around a gait's fixed point ``v*`` (section coordinates, ``(n_v,)``) a start
+``v = v* + dv`` is walked by the step map on flat ground
+(:func:`jaxwalk.global_stability.walks.walk_until`, the package's one walk
+loop) for at most ``steps`` steps. Its fate:
+
+* **returned** (``OK``): after some completed step ``n`` (``1 <= n <= steps``)
+  the state is within ``tol`` of the target cycle, in the scaled norm below;
+  ``n`` is its steps-to-return;
+* **failed**: a step failed first; the failing step's status (``FELL``,
+  ``SCUFFING``, ...);
+* **not returned** (``NOT_RETURNED``): ``steps`` steps walked, never within
+  ``tol`` (a slower return, another attractor, or none).
+
+The target cycle is the gait itself where it is stable, or the attractor
+cycle it settles on (``[analysis] attractors``' points, any period).
+
+**Norm.** Distances and radii are Euclidean in scaled coordinates,
+``|dv|_s = sqrt(sum_i (dv_i / scale_i)^2)``, ``scale_i`` in the coordinate's
+own units (default 1: rad and rad per model time unit), so radii are
+dimensionless. Only the section coordinates named in ``coordinates`` are
+perturbed (default: all); the others stay at ``v*``. ``d`` below is their number.
+
+**Basin fraction.** ``samples`` starts uniform in the ``d``-ball of radius
+``radius`` (the same unit-ball points, from ``seed``, for every gait: common
+random numbers, so a landscape over a grid is not speckled by sampling); the
+fraction that returned, and its binomial standard error ``sqrt(f (1 - f) / n)``.
+
+**Ray radii.** Along each of ``directions`` unit directions (``d = 2``:
+evenly spaced angles from the first coordinate's axis; ``d = 1``: both signs;
+``d >= 3``: the ``2 d`` signed axes, then normalised Gaussian vectors from
+``seed``), the starts at ``radius * j / scan``, ``j = 1..scan``; between the
+last returning one before the first failure and that failure, ``bisections``
+bisections. The ray radius is the largest radius confirmed to return (the
+boundary lies within ``radius / scan / 2^bisections`` above it; ``radius``
+itself, a lower bound, where no scanned start failed). ``basin_radius`` is
+their minimum: the largest ball about ``v*`` inside the basin as far as the
+directions see it. A ray can re-enter the basin beyond its first failure:
+only the first boundary (to the scan's resolution) is found.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from jaxwalk import program_cache
+from jaxwalk.global_stability.walks import walk_until
+from jaxwalk.status import Status
+from jaxwalk.step import SolverOptions
+from jaxwalk.walker import Walker
+
+Array = jax.Array
+
+
+@dataclasses.dataclass(frozen=True)
+class BasinOptions:
+    """Settings of the basin measure (hashable; module docstring for their meaning).
+
+    Attributes:
+        radius: the ball's radius (scaled norm, dimensionless).
+        samples: random starts in the ball.
+        steps: most steps walked from a start.
+        tol: a start has returned when within this of the target cycle (scaled norm).
+        directions: rays of the radius search.
+        scan: evenly spaced starts per ray before bisection.
+        bisections: bisections of the first failing scan interval.
+        scale: ``(n_v,)`` each section coordinate's scale, its own units; ``None``: all 1.
+        coordinates: indices of the perturbed section coordinates; ``None``: all.
+        seed: of the ball's points (and of the ``d >= 3`` directions).
+    """
+
+    radius: float = 0.01
+    samples: int = 256
+    steps: int = 60
+    tol: float = 1e-4
+    directions: int = 16
+    scan: int = 8
+    bisections: int = 10
+    scale: tuple[float, ...] | None = None
+    coordinates: tuple[int, ...] | None = None
+    seed: int = 0
+
+    def scales(self, n_v: int) -> np.ndarray:
+        return np.ones(n_v) if self.scale is None else np.asarray(self.scale, np.float64)
+
+    def perturbed(self, n_v: int) -> tuple[int, ...]:
+        return tuple(range(n_v)) if self.coordinates is None else tuple(self.coordinates)
+
+
+def unit_ball(d: int, samples: int, seed: int) -> np.ndarray:
+    """``(samples, d)`` points uniform in the unit ``d``-ball (NumPy ``default_rng(seed)``)."""
+    rng = np.random.default_rng(seed)
+    x = rng.standard_normal((samples, d))
+    x /= np.linalg.norm(x, axis=1, keepdims=True)
+    return x * rng.uniform(size=(samples, 1)) ** (1.0 / d)
+
+
+def ray_directions(d: int, count: int, seed: int) -> np.ndarray:
+    """``(count, d)`` unit directions (module docstring)."""
+    if d == 1:
+        return np.array([[1.0], [-1.0]] * ((count + 1) // 2))[:count]
+    if d == 2:
+        angle = 2.0 * np.pi * np.arange(count) / count
+        return np.stack([np.cos(angle), np.sin(angle)], -1)
+    axes = np.concatenate([np.eye(d), -np.eye(d)])
+    extra = np.random.default_rng(seed + 1).standard_normal((max(0, count - 2 * d), d))
+    extra /= np.linalg.norm(extra, axis=1, keepdims=True)
+    return np.concatenate([axes, extra])[:count]
+
+
+def embed(offsets: Array, v_star: Array, scale: Array, coordinates: tuple[int, ...]) -> Array:
+    """``v* + dv`` for scaled offsets ``(..., d)`` of the perturbed coordinates -> ``(..., n_v)``."""
+    idx = jnp.asarray(coordinates)
+    dv = jnp.zeros(offsets.shape[:-1] + v_star.shape, v_star.dtype).at[..., idx].set(offsets * scale[idx])
+    return v_star + dv
+
+
+def cycle_distance(v: Array, targets: Array, scale: Array) -> Array:
+    """Scaled distance from ``v`` ``(n_v,)`` to the nearest finite row of ``targets`` ``(P, n_v)``."""
+    d = jnp.sqrt(jnp.sum(((v - targets) / scale) ** 2, axis=-1))
+    return jnp.min(jnp.where(jnp.all(jnp.isfinite(targets), axis=-1), d, jnp.inf))
+
+
+class Fate(NamedTuple):
+    """Where a start went (batch shape in front).
+
+    Attributes:
+        status: int8 ``OK`` (returned), the failing step's status, or ``NOT_RETURNED``.
+        steps: int32 steps walked (to the return, to the failure, or ``steps``).
+        distance: scaled distance to the target cycle at the end.
+    """
+
+    status: Array
+    steps: Array
+    distance: Array
+
+
+def fate(model: Walker, params, v0: Array, targets: Array, scale: Array, options: BasinOptions,
+         solver: SolverOptions = SolverOptions()) -> Fate:
+    """The fate of one start ``v0`` (module docstring; one walk, vmap it)."""
+    end = walk_until(model, params, v0, options.steps, stop=lambda v: cycle_distance(v, targets, scale) < options.tol,
+                     solver=solver)
+    status = jnp.where(end.status != Status.OK, end.status,
+                       jnp.where(end.stopped, jnp.int8(Status.OK), jnp.int8(Status.NOT_RETURNED))).astype(jnp.int8)
+    return Fate(status, end.steps, cycle_distance(end.v, targets, scale))
+
+
+def fates(model: Walker, params, starts: Array, targets: Array, scale: Array, options: BasinOptions,
+          solver: SolverOptions = SolverOptions()) -> Fate:
+    """:func:`fate` of every row of ``starts`` ``(n, n_v)``, ``model.lockstep_batch`` walks in lockstep."""
+    return jax.lax.map(lambda v: fate(model, params, v, targets, scale, options, solver), starts,
+                       batch_size=model.lockstep_batch)
+
+
+@program_cache.serializable
+class Basin(NamedTuple):
+    """The basin measure of one gait (module docstring).
+
+    Attributes:
+        fraction: share of the ball's starts that returned.
+        fraction_error: its binomial standard error.
+        ray_radius: ``(directions,)`` each ray's radius.
+        radius: their minimum.
+        sample_status: ``(samples,)`` int8 fate of each ball start.
+    """
+
+    fraction: Array
+    fraction_error: Array
+    ray_radius: Array
+    radius: Array
+    sample_status: Array
+
+
+def basin(model: Walker, params, v_star: Array, targets: Array, options: BasinOptions,
+          solver: SolverOptions = SolverOptions()) -> Basin:
+    """The basin fraction and ray radii of the gait at ``v_star`` (one configuration; vmap
+    or ``lax.map`` it). ``targets``: ``(P, n_v)`` the cycle returned to (NaN rows ignored)."""
+    n_v = v_star.shape[0]
+    coords = options.perturbed(n_v)
+    scale = jnp.asarray(options.scales(n_v), v_star.dtype)
+    ball = jnp.asarray(unit_ball(len(coords), options.samples, options.seed)) * options.radius
+    dirs = jnp.asarray(ray_directions(len(coords), options.directions, options.seed))
+    grid = options.radius * jnp.arange(1, options.scan + 1) / options.scan  # (scan,)
+    rays = dirs[:, None, :] * grid[None, :, None]  # (D, scan, d)
+    starts = embed(jnp.concatenate([ball, rays.reshape(-1, len(coords))]), v_star, scale, coords)
+    out = fates(model, params, starts, targets, scale, options, solver).status
+    sample_status, ray_ok = out[: options.samples], (out[options.samples:] == Status.OK).reshape(rays.shape[:2])
+    returned = (sample_status == Status.OK).mean()
+
+    first_fail = jnp.argmin(ray_ok, axis=1)  # the first False (0 if all returned: see none_failed)
+    none_failed = jnp.all(ray_ok, axis=1)
+    lo = jnp.where(first_fail > 0, grid[jnp.maximum(first_fail - 1, 0)], 0.0)
+    hi = grid[first_fail]
+
+    def bisect(_, bounds):
+        lo, hi = bounds
+        mid = 0.5 * (lo + hi)
+        ok = fates(model, params, embed(dirs * mid[:, None], v_star, scale, coords), targets, scale, options, solver).status == 0
+        return jnp.where(ok, mid, lo), jnp.where(ok, hi, mid)
+
+    lo, _ = jax.lax.fori_loop(0, options.bisections, bisect, (lo, hi))
+    ray_radius = jnp.where(none_failed, options.radius, lo)
+    error = jnp.sqrt(returned * (1.0 - returned) / options.samples)
+    return Basin(returned, error, ray_radius, jnp.min(ray_radius), sample_status)
+
+
+@functools.lru_cache(maxsize=None)
+def basin_program(model: Walker, options: BasinOptions, solver: SolverOptions):
+    """``jit``: rows (parameters, ``__v_star__`` ``(n, n_v)``, ``__targets__`` ``(n, P, n_v)``)
+    -> :class:`Basin` of each row, one row at a time (its walks are the batch)."""
+    from jaxwalk.analyses.base import row_program
+
+    def one(row):
+        p = dict(row)
+        v, targets = p.pop("__v_star__"), p.pop("__targets__")
+        return basin(model, p, v, targets, options, solver)
+
+    return row_program(one, 1, "basin", model, options, solver)
