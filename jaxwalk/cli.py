@@ -6,6 +6,8 @@ Commands:
                                   walk N steps, record the trajectory, draw it (docs/simulate.md)
     continue CONFIG.toml --out DIR
                                   pseudo-arclength branches of periodic gaits (docs/continuation.md)
+    basin CONFIG.toml --out DIR   the basin of attraction on a 2-D slice of the section, an image
+                                  and its dataset (docs/global_stability.md)
     plot DATASET [--out DIR] [--vars VAR ...]
                                   heatmaps and line plots of a sweep dataset (docs/plot.md);
                                   bifurcation diagrams of a continuation dataset
@@ -196,6 +198,37 @@ def cmd_continue(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+# ---------------------------------------------------------------- basin
+
+
+def add_basin(sub) -> None:
+    p = sub.add_parser("basin", help="draw a gait's basin of attraction on two section coordinates",
+                       description=cmd_basin.__doc__)
+    p.add_argument("config", metavar="CONFIG.toml", help="basin config (docs/global_stability.md)")
+    p.add_argument("--out", required=True, metavar="DIR", help="output directory: DIR/<name>_basin.zarr and DIR/<name>_basin.png")
+    p.add_argument("--overwrite", action="store_true", help="replace existing outputs of the same name")
+    p.set_defaults(run=cmd_basin)
+
+
+def cmd_basin(args: argparse.Namespace) -> int:
+    """Walk a grid of starts about the gait of CONFIG.toml's model, two section coordinates
+    varied and the others at the fixed point, all at once; write each start's fate
+    (returned, the failing status, not returned) and steps to DIR/<name>_basin.zarr and
+    draw them, DIR/<name>_basin.png."""
+    from jaxwalk.basin import load_basin_config
+    from jaxwalk.basin.run import run_basin
+    from jaxwalk.status import describe
+
+    import numpy as np
+
+    config = load_basin_config(args.config)
+    paths, ds = run_basin(config, args.out, overwrite=args.overwrite, command=args.command_line)
+    codes, counts = np.unique(ds["outcome"].values, return_counts=True)
+    summary = ", ".join(f"{int(n)} {describe(c)}" for c, n in zip(codes, counts))
+    print(f"wrote {paths['dataset']}, {paths['image']}: {int(counts.sum())} starts, {summary}")
+    return EXIT_OK
+
+
 # ---------------------------------------------------------------- plot
 
 
@@ -345,7 +378,7 @@ def _one_line_warning(message, category, filename, lineno, file=None, line=None)
 # ---------------------------------------------------------------- parser
 
 #: The commands, in the order ``--help`` lists them.
-COMMANDS: tuple[Callable, ...] = (add_sweep, add_simulate, add_continue, add_plot, add_optimize, add_cache)
+COMMANDS: tuple[Callable, ...] = (add_sweep, add_simulate, add_continue, add_basin, add_plot, add_optimize, add_cache)
 
 
 def build_parser() -> argparse.ArgumentParser:

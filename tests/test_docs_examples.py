@@ -2,8 +2,9 @@
 blocks and the Python of their ```python blocks, extracted from the files.
 
 Small: sweeps run for real on the bundled simplest-walker config (its programs
-compile once for the module); a simulate or optimize command is parsed and its
-config checked (walking the kneed walker or optimising takes minutes), a Dask
+compile once for the module); a simulate, optimize or basin command is parsed and its
+config checked (walking the kneed walker, optimising or walking a basin's
+thousands of starts takes minutes), a Dask
 cluster command likewise. Outputs go to a temporary directory.
 """
 
@@ -22,7 +23,7 @@ ROOT = Path(__file__).resolve().parents[1]
 DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
 BLOCK = re.compile(r"```(bash|python)\n(.*?)```", re.S)
 #: Commands that compute for minutes, or need a cluster: checked, not run.
-CHECKED_ONLY = ("simulate", "optimize")
+CHECKED_ONLY = ("simulate", "optimize", "basin")
 
 
 def examples(kind: str) -> list[tuple[str, str]]:
@@ -69,7 +70,7 @@ def test_every_command_line_runs(workdir, monkeypatch, capsys):
                 continue  # sweeps/big.toml: a placeholder for the user's own config
         if args[0] in CHECKED_ONLY:
             parsed = cli.build_parser().parse_args(args)
-            loader = {"simulate": "load_simulate_config", "optimize": "load_optimize_config"}[args[0]]
+            loader = {"simulate": "load_simulate_config", "optimize": "load_optimize_config", "basin": "load_basin_config"}[args[0]]
             module = __import__(f"jaxwalk.{args[0]}", fromlist=[loader])
             getattr(module, loader)(parsed.config)
             continue

@@ -1,0 +1,154 @@
+"""Run a :class:`~jaxwalk.basin.config.BasinConfig`: find the gait, walk a grid of
+starts about it (all at once, :func:`jaxwalk.global_stability.basin.fate` under vmap,
+in chunks on every worker thread), write one self-describing dataset and the image.
+
+Dataset (dims ``y``, ``x``; coordinates ``x``, ``y``: the varied section
+coordinates' values, their names and units in the attributes):
+
+* ``outcome`` int8, CF flag attributes: ``ok`` returned to within ``tol`` of
+  the gait, the failing step's status (``fell``, ``scuffing``, ``stalled``, ...),
+  ``not_returned`` (walked ``steps`` steps without either);
+* ``steps`` int32: steps walked (to the return, to the failure, or ``steps``);
+* ``distance``: scaled distance to the fixed point at the end.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import functools
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from jaxwalk.basin.config import BasinConfig
+from jaxwalk.models import get_model
+from jaxwalk.simulate.start import GaitNotFound, find_start_gait
+from jaxwalk.status import STATUS_MEANINGS, Status, describe, flag_attributes
+from jaxwalk.sweep.config import ConfigError
+
+
+def output_paths(out_dir, name: str) -> dict[str, Path]:
+    """``dataset`` ``DIR/<name>_basin.zarr`` and ``image`` ``DIR/<name>_basin.png``."""
+    return {"dataset": Path(out_dir) / f"{name}_basin.zarr", "image": Path(out_dir) / f"{name}_basin.png"}
+
+
+def check_outputs(out_dir, name: str, overwrite: bool) -> dict[str, Path]:
+    """:func:`output_paths` if they can be written; creates nothing. Raises :class:`ConfigError`."""
+    from jaxwalk.sweep.runner import check_output
+
+    check_output(out_dir, f"{name}_basin", overwrite=overwrite)
+    paths = output_paths(out_dir, name)
+    if (paths["image"].exists() or paths["image"].is_symlink()) and not overwrite:
+        raise ConfigError(f"'{paths['image']}' already exists (pass --overwrite to replace it)")
+    return paths
+
+
+def starts_grid(config: BasinConfig, v_star: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(xs, ys, starts)``: the axes' values and the ``(ny * nx, n_v)`` starts (C order, y slowest)."""
+    (nx, ny), (sx, sy) = config.points, config.span
+    xs = v_star[config.x] + np.linspace(-sx, sx, nx)
+    ys = v_star[config.y] + np.linspace(-sy, sy, ny)
+    starts = np.repeat(v_star[None], nx * ny, axis=0)
+    gy, gx = np.meshgrid(ys, xs, indexing="ij")
+    starts[:, config.x], starts[:, config.y] = gx.reshape(-1), gy.reshape(-1)
+    return xs, ys, starts
+
+
+@functools.lru_cache(maxsize=None)
+def _fate_program(model, options, solver):
+    from jaxwalk.analyses.base import row_program
+    from jaxwalk.global_stability.basin import fate
+
+    def one(row):
+        p = dict(row)
+        v, target, scale = p.pop("__v__"), p.pop("__target__"), p.pop("__scale__")
+        return fate(model, p, v, target[None], scale, options, solver)
+
+    return row_program(one, model.lockstep_batch, "basin_fate", model, options, solver)
+
+
+def walk_starts(config: BasinConfig, model, params, v_star: np.ndarray, starts: np.ndarray, solver):
+    """:class:`~jaxwalk.global_stability.basin.Fate` of every start (NumPy leaves)."""
+    from jaxwalk.batching import run_chunks
+    from jaxwalk.global_stability.basin import BasinOptions
+
+    options = BasinOptions(steps=config.steps, tol=config.tol)
+    program = _fate_program(model, options, solver)
+    n = len(starts)
+    rows = {k: np.full(n, float(v)) for k, v in params.items()}
+    rows.update(__v__=starts, __target__=np.repeat(v_star[None], n, 0), __scale__=np.repeat(np.asarray(config.scale)[None], n, 0))
+    return run_chunks(program, rows, 4096, None)
+
+
+def find_gait_or_fail(config: BasinConfig, model, params, solver):
+    """The stable period-1 gait from the model's initial guess; :class:`GaitNotFound` otherwise."""
+    gait = find_start_gait(model, params, solver)
+    code = int(gait.status)
+    if code != Status.OK:
+        raise GaitNotFound(f"{config.source}: no periodic gait found from the {model.name} model's initial guess: "
+                           f"status {describe(code)} ({STATUS_MEANINGS.get(Status(code), '')})")
+    if not float(gait.lambda_max) < 1.0:
+        raise GaitNotFound(f"{config.source}: the {model.name} model's gait here is unstable (lambda_max = "
+                           f"{float(gait.lambda_max):.4g}): it has no basin of its own")
+    return gait
+
+
+def build_dataset(config: BasinConfig, model, gait, xs, ys, fates, command: str | None = None) -> xr.Dataset:
+    """The image's data as one dataset (module docstring), attributes self-describing."""
+    from jaxwalk.sweep.dataset import output_units, package_versions
+
+    shape = (len(ys), len(xs))
+    names = tuple(model.section_names)
+    xn, yn = names[config.x], names[config.y]
+    data = {
+        "outcome": (("y", "x"), np.asarray(fates.status, np.int8).reshape(shape),
+                    {"long_name": "fate of the start (ok: returned to the gait)", **flag_attributes()}),
+        "steps": (("y", "x"), np.asarray(fates.steps, np.int32).reshape(shape),
+                  {"long_name": "steps walked: to the return (ok), to the failed step, or the limit", "units": "steps"}),
+        "distance": (("y", "x"), np.asarray(fates.distance).reshape(shape),
+                     {"long_name": "scaled distance to the fixed point after the last completed step", "units": "1"}),
+    }
+    # Section coordinates carry no declared units (as a sweep's fixed_point): the model's own.
+    coords = {"x": ("x", xs, {"long_name": f"section coordinate {xn} (the model's units)"}),
+              "y": ("y", ys, {"long_name": f"section coordinate {yn} (the model's units)"})}
+    attrs = {
+        "title": f"basin of attraction of the {config.model} gait on the section ({xn}, {yn})",
+        "kind": "basin", "name": config.name, "model": config.model,
+        "fixed_parameters": " ".join(f"{k}={v!r}" for k, v in config.fixed.items()),
+        "parameter_units": " ".join(f"{k}={spec.units}" for k, spec in model.param_specs.items()),
+        "model_units": " ".join(f"{k}={v}" for k, v in output_units(model).items()),
+        "section_names": " ".join(names), "fixed_point": [float(v) for v in gait.v],
+        "lambda_max": float(gait.lambda_max), "x_coordinate": xn, "y_coordinate": yn, "span": list(config.span),
+        "held": "every other section coordinate at the fixed point", "steps_limit": config.steps, "tol": config.tol,
+        "scale": list(config.scale),
+        "norm": "sqrt(sum_i ((v_i - v*_i) / scale_i)^2) over the section coordinates (jaxwalk.global_stability.basin)",
+        "returned": "ok: after some completed step (1..steps_limit) within tol of the fixed point",
+        "config": config.text or "", "config_source": config.source, "command": command or "",
+        "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        **{f"{name}_version": v for name, v in package_versions().items()},
+    }
+    return xr.Dataset(data, coords=coords, attrs=attrs)
+
+
+def run_basin(config: BasinConfig, out, *, overwrite: bool = False, command: str | None = None, solver=None):
+    """Check the outputs, find the gait, walk the starts, write the dataset and the image;
+    returns ``(paths, dataset)``."""
+    from jaxwalk.basin.figure import save_basin
+    from jaxwalk.simulate.output import write_atomically
+    from jaxwalk.step import SolverOptions
+    from jaxwalk.sweep.dataset import write_zarr
+    from jaxwalk.walker import as_params
+
+    model = get_model(config.model)
+    paths = check_outputs(out, config.name, overwrite)
+    solver = solver or SolverOptions()
+    params = as_params(config.fixed)
+    gait = find_gait_or_fail(config, model, params, solver)
+    v_star = np.asarray(gait.v, np.float64)
+    xs, ys, starts = starts_grid(config, v_star)
+    fates = walk_starts(config, model, config.fixed, v_star, starts, solver)
+    ds = build_dataset(config, model, gait, xs, ys, fates, command)
+    write_zarr(ds, paths["dataset"], overwrite=overwrite)
+    write_atomically(paths["image"], lambda p: save_basin(ds, p))
+    return paths, ds
