@@ -192,7 +192,7 @@ def basin(model: Walker, params, v_star: Array, targets: Array, options: BasinOp
     starts = embed(jnp.concatenate([ball, rays.reshape(-1, len(coords))]), v_star, scale, coords)
     out = fates(model, params, starts, targets, scale, options, solver).status
     sample_status, ray_ok = out[: options.samples], (out[options.samples:] == Status.OK).reshape(rays.shape[:2])
-    returned = (sample_status == Status.OK).mean()
+    returned = (sample_status == Status.OK).astype(v_star.dtype).mean()  # float64: a bool mean is float32
 
     first_fail = jnp.argmin(ray_ok, axis=1)  # the first False (0 if all returned: see none_failed)
     none_failed = jnp.all(ray_ok, axis=1)
