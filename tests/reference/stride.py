@@ -15,7 +15,8 @@ downward.  A heel-strike with the swing foot not ahead of the stance foot
 stance foot after mid-stance; detected as a step length below
 ``MIN_STEP_LENGTH * l``) is a failure, status ``"fell"``; ``scuffing="ignore"``
 switches to Garcia's rule instead (the foot passes through the ground, and
-heel-strike is ``alpha_1 + alpha_2 = 0``).  Terminal failure events in
+heel-strike is ``alpha_1 + alpha_2`` crossing 0 downward, the foot coming down
+ahead; Garcia's ``phi - 2 theta = 0``).  Terminal failure events in
 both legs: the hip falls below half the leg length (``cos alpha_1 < 1/2``,
 status ``"fell"``), the stance leg stops and rotates backwards
 (``alpha_1_dot`` crosses 0 upward, status ``"stalled"``); no heel-strike
@@ -148,7 +149,10 @@ def _stride(model: _Model, x0: np.ndarray, drop: float, rtol: float, atol: float
         return math.sin(0.5 * (y[0] + y[1]))
 
     ev_symmetric.terminal = True
-    ev_symmetric.direction = 0.0
+    # Downward only: with the swing leg ahead, y_sw has the sign of alpha_1 + alpha_2.
+    # After the legs-together root alpha_1 + alpha_2 = 2 alpha_1 < 0, and its first
+    # (upward) zero is the foot rising back out of the ground, not a heel-strike.
+    ev_symmetric.direction = -1.0
 
     heel = ev_heel
     while True:  # leg B: until heel-strike
@@ -165,8 +169,8 @@ def _stride(model: _Model, x0: np.ndarray, drop: float, rtol: float, atol: float
             return x_minus, info
         if scuffing == "ignore" and heel is ev_heel and drop == 0.0:
             # The root found is the legs-together one (swing foot passing the stance
-            # foot at ground level after mid-stance). Garcia's rule ignores it: go on
-            # to alpha_1 + alpha_2 = 0 (the foot then rises back through the ground).
+            # foot at ground level after mid-stance). Garcia's rule ignores it: the foot
+            # rises back through the ground and the strike is its next descent to it.
             info["scuffed_after_midstance"] = True
             heel, t0, x = ev_symmetric, info["step_time"], x_minus
             continue
