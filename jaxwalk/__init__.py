@@ -66,7 +66,7 @@ from jaxwalk.step import (  # noqa: E402
     run_step as run_step,
     step_map as step_map,
 )
-from jaxwalk.sweep.config import ConfigError as ConfigError  # noqa: E402
+from jaxwalk.errors import ConfigError as ConfigError  # noqa: E402
 from jaxwalk.walker import Transition as Transition, Walker as Walker, as_params as as_params  # noqa: E402
 
 #: The notebook functions, which are also the packages of their commands:

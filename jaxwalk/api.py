@@ -20,7 +20,8 @@ from typing import Any, Callable, Mapping
 
 import xarray as xr
 
-from jaxwalk.sweep.config import DEFAULT_MAX_POINTS, ConfigError
+from jaxwalk.errors import ConfigError
+from jaxwalk.sweep.config import DEFAULT_MAX_POINTS
 
 Config = "str | os.PathLike | Mapping[str, Any]"
 

@@ -37,12 +37,15 @@ import sys
 import warnings
 from typing import Callable, Sequence
 
+from jaxwalk.errors import ConfigError
+
 PROG = "jaxwalk"
 EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
 
 
-class UsageError(Exception):
-    """Bad command-line arguments (raised instead of argparse's multi-line exit)."""
+class UsageError(ConfigError):
+    """Bad command-line arguments (raised instead of argparse's multi-line exit);
+    a :class:`~jaxwalk.errors.ConfigError`, the root of every user error."""
 
 
 class _Parser(argparse.ArgumentParser):
@@ -396,8 +399,6 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the exit status."""
-    from jaxwalk.sweep.config import ConfigError
-
     argv = list(sys.argv[1:] if argv is None else argv)
     warnings.showwarning = _one_line_warning
     try:
@@ -405,7 +406,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         args.command_line = shlex.join([PROG, *argv])
         _configure_cache(args)
         return args.run(args)
-    except (UsageError, ConfigError) as err:
+    except ConfigError as err:  # UsageError among them
         return _fail(str(err), EXIT_USAGE)
     except OSError as err:  # the disk, not the input: still one line
         return _fail(f"{f'{err.filename}: ' if err.filename else ''}{err.strerror or err}", EXIT_FAILED)

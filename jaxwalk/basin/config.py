@@ -61,7 +61,7 @@ class BasinConfig:
 
 
 def load_basin_config(path: str | Path) -> BasinConfig:
-    """Read and check ``path``. Raises :class:`~jaxwalk.sweep.config.ConfigError` (one line)."""
+    """Read and check ``path``. Raises :class:`~jaxwalk.errors.ConfigError` (one line)."""
     text = read_config_text(path)
     return parse_basin_config(parse_toml(text, source=str(path)), source=str(path), text=text)
 

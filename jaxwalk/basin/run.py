@@ -25,7 +25,7 @@ from jaxwalk.basin.config import BasinConfig
 from jaxwalk.models import get_model
 from jaxwalk.simulate.start import GaitNotFound, find_start_gait
 from jaxwalk.status import STATUS_MEANINGS, Status, describe, flag_attributes
-from jaxwalk.sweep.config import ConfigError
+from jaxwalk.errors import ConfigError
 
 
 def output_paths(out_dir, name: str) -> dict[str, Path]:

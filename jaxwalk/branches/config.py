@@ -63,7 +63,7 @@ class ContinueConfig:
 
 
 def load_continue_config(path: str | Path) -> ContinueConfig:
-    """Read and check ``path``. Raises :class:`~jaxwalk.sweep.config.ConfigError` (one line)."""
+    """Read and check ``path``. Raises :class:`~jaxwalk.errors.ConfigError` (one line)."""
     text = read_config_text(path)
     return parse_continue_config(parse_toml(text, source=str(path)), source=str(path), text=text)
 

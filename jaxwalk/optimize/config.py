@@ -23,7 +23,7 @@ optimise over which parameters, from which starts (see ``docs/optimize.md``)::
     [analysis]                     # solver settings, as in sweeps
     rtol = 1e-10
 
-As for sweeps, every problem is a :class:`~jaxwalk.sweep.config.ConfigError`
+As for sweeps, every problem is a :class:`~jaxwalk.errors.ConfigError`
 with a one-line message naming the file, the section and the key.
 """
 

@@ -26,7 +26,7 @@ from jaxwalk import analyses, outputs
 from jaxwalk.optimize.config import OptimizeConfig
 from jaxwalk.optimize.engine import QUANTITIES, Path, optimise
 from jaxwalk.status import Status, flag_attributes
-from jaxwalk.sweep.config import ConfigError
+from jaxwalk.errors import ConfigError
 from jaxwalk.sweep.dataset import output_units, package_versions, units_note, write_zarr
 
 _NEWTON_FIELDS = {"newton_tol": "tol", "max_newton_iter": "max_iter"}

@@ -18,7 +18,7 @@ import xarray as xr
 
 from jaxwalk import analyses
 from jaxwalk.status import Status
-from jaxwalk.sweep.config import ConfigError
+from jaxwalk.errors import ConfigError
 from jaxwalk.sweep.integrity import check_complete
 
 #: The variables drawn by default, in this order, when the dataset has them with values:
@@ -30,7 +30,7 @@ DEFAULT_VARIABLES = analyses.plotted()
 class PlotError(ConfigError):
     """Unusable plot input (a missing or foreign dataset, an unknown variable or axis).
 
-    A :class:`~jaxwalk.sweep.config.ConfigError`, so the command line reports it as
+    A :class:`~jaxwalk.errors.ConfigError`, so the command line reports it as
     one line with exit status 2.
     """
 

@@ -7,7 +7,7 @@ import os
 import tempfile
 from pathlib import Path
 
-from jaxwalk.sweep.config import ConfigError
+from jaxwalk.errors import ConfigError
 from jaxwalk.walker import Walker, missing
 
 

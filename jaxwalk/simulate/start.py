@@ -13,7 +13,7 @@ import functools
 
 import numpy as np
 
-from jaxwalk.sweep.config import ConfigError
+from jaxwalk.errors import ConfigError
 from jaxwalk.walker import Walker
 
 

@@ -25,7 +25,7 @@ from typing import Callable, Iterable, Iterator, Mapping
 
 import numpy as np
 
-from jaxwalk.sweep.config import ConfigError
+from jaxwalk.errors import ConfigError
 
 #: Tasks in flight per worker thread: enough to keep every worker busy while the
 #: client writes, few enough that waiting results stay small.

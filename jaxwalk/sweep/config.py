@@ -32,6 +32,7 @@ import numpy as np
 
 from jaxwalk import analyses
 from jaxwalk.analyses import did_you_mean as _did_you_mean
+from jaxwalk.errors import ConfigError as ConfigError  # the error root, re-exported where it was
 from jaxwalk.models import get_model
 from jaxwalk.parameters import ParamSpec
 from jaxwalk.walker import check_supported
@@ -48,10 +49,6 @@ SOLVER_KEYS = ("rtol", "atol", "newton_tol", "max_newton_iter")
 ANALYSIS_KEYS = ("stability", "continuation", "seed_axis", *analyses.keys(), *SOLVER_KEYS)
 
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*\Z")
-
-
-class ConfigError(Exception):
-    """A sweep's input is unusable. ``str(err)`` is one line, fit for a terminal."""
 
 
 @dataclasses.dataclass(frozen=True)

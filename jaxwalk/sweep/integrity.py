@@ -20,7 +20,7 @@ import xarray as xr
 
 from jaxwalk import analyses
 from jaxwalk.status import Status
-from jaxwalk.sweep.config import ConfigError
+from jaxwalk.errors import ConfigError
 
 
 def required() -> tuple[str, ...]:

@@ -49,8 +49,9 @@ import numpy as np
 from jaxwalk import analyses
 from jaxwalk.analyses import gait, step_down
 from jaxwalk.analyses.step_down import ANALYSIS as step_down_analysis
+from jaxwalk.errors import ConfigError
 from jaxwalk.models import get_model
-from jaxwalk.sweep.config import DEFAULT_MAX_POINTS, ConfigError, SweepConfig, load_config
+from jaxwalk.sweep.config import DEFAULT_MAX_POINTS, SweepConfig, load_config
 
 Analyse = Callable[..., Mapping[str, np.ndarray]]
 

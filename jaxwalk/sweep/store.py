@@ -43,8 +43,9 @@ from typing import Iterator, Mapping
 import numpy as np
 
 from jaxwalk import analyses
+from jaxwalk.errors import ConfigError
 from jaxwalk.status import Status
-from jaxwalk.sweep.config import ConfigError, GridAxis, SweepConfig, _human_bytes
+from jaxwalk.sweep.config import GridAxis, SweepConfig, _human_bytes
 from jaxwalk.walker import Walker
 
 PARTIAL_SUFFIX = ".partial"
