@@ -28,7 +28,6 @@ import importlib.metadata
 import inspect
 import os
 import sys
-import tempfile
 import warnings
 from pathlib import Path
 
@@ -38,6 +37,7 @@ from jax import export
 
 from jaxwalk import cache
 from jaxwalk.continuation import LineCarry
+from jaxwalk.files import write_atomically
 from jaxwalk.gait import Gait
 from jaxwalk.stepdown import StepDownResult
 
@@ -136,12 +136,11 @@ def _save(path: Path, exported) -> None:
     """Write atomically (a temporary file renamed): concurrent runs may share the directory."""
     try:
         data = exported.serialize()
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-")
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.chmod(tmp, 0o644)  # as the compilation cache's files: readable by whoever shares it
-        os.replace(tmp, path)
+        def write(tmp: Path) -> None:
+            tmp.write_bytes(data)
+            os.chmod(tmp, 0o644)  # as the compilation cache's files: readable by whoever shares it
+
+        write_atomically(path, write)
     except Exception as err:  # a read-only or full disk costs the next run a trace, nothing else
         warnings.warn(f"traced program not kept in the cache ({' '.join(str(err).split())})", cache.CacheWarning, stacklevel=3)
 

@@ -14,7 +14,6 @@ coordinates' values, their names and units in the attributes):
 
 from __future__ import annotations
 
-import datetime as _dt
 import functools
 from pathlib import Path
 
@@ -25,7 +24,6 @@ from jaxwalk.basin.config import BasinConfig
 from jaxwalk.models import get_model
 from jaxwalk.simulate.start import GaitNotFound, find_start_gait
 from jaxwalk.status import STATUS_MEANINGS, Status, describe, flag_attributes
-from jaxwalk.errors import ConfigError
 
 
 def output_paths(out_dir, name: str) -> dict[str, Path]:
@@ -35,12 +33,10 @@ def output_paths(out_dir, name: str) -> dict[str, Path]:
 
 def check_outputs(out_dir, name: str, overwrite: bool) -> dict[str, Path]:
     """:func:`output_paths` if they can be written; creates nothing. Raises :class:`ConfigError`."""
-    from jaxwalk.sweep.runner import check_output
+    from jaxwalk.files import check_output
 
-    check_output(out_dir, f"{name}_basin", overwrite=overwrite)
     paths = output_paths(out_dir, name)
-    if (paths["image"].exists() or paths["image"].is_symlink()) and not overwrite:
-        raise ConfigError(f"'{paths['image']}' already exists (pass --overwrite to replace it)")
+    check_output(out_dir, f"{name}_basin", overwrite=overwrite, others=[paths["image"]])
     return paths
 
 
@@ -96,7 +92,8 @@ def find_gait_or_fail(config: BasinConfig, model, params, solver):
 
 def build_dataset(config: BasinConfig, model, gait, xs, ys, fates, command: str | None = None) -> xr.Dataset:
     """The image's data as one dataset (module docstring), attributes self-describing."""
-    from jaxwalk.sweep.dataset import output_units, package_versions
+    from jaxwalk.files import provenance
+    from jaxwalk.sweep.dataset import output_units
 
     shape = (len(ys), len(xs))
     names = tuple(model.section_names)
@@ -124,9 +121,8 @@ def build_dataset(config: BasinConfig, model, gait, xs, ys, fates, command: str 
         "scale": list(config.scale),
         "norm": "sqrt(sum_i ((v_i - v*_i) / scale_i)^2) over the section coordinates (jaxwalk.global_stability.basin)",
         "returned": "ok: after some completed step (1..steps_limit) within tol of the fixed point",
-        "config": config.text or "", "config_source": config.source, "command": command or "",
-        "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
-        **{f"{name}_version": v for name, v in package_versions().items()},
+        "config": config.text or "", "config_source": config.source,
+        **provenance(command, "jaxwalk.basin.run_basin"),
     }
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
@@ -135,9 +131,8 @@ def run_basin(config: BasinConfig, out, *, overwrite: bool = False, command: str
     """Check the outputs, find the gait, walk the starts, write the dataset and the image;
     returns ``(paths, dataset)``."""
     from jaxwalk.basin.figure import save_basin
-    from jaxwalk.simulate.output import write_atomically
+    from jaxwalk.files import write_atomically, write_zarr
     from jaxwalk.step import SolverOptions
-    from jaxwalk.sweep.dataset import write_zarr
     from jaxwalk.walker import as_params
 
     model = get_model(config.model)

@@ -52,8 +52,9 @@ def plot_branches(path: str | Path, out: str | Path | None = None, y: str = "lam
     ax.set_title(f"{ds.attrs['model']}: stable solid, unstable dashed")
     ax.legend(fontsize=8)
     target = Path(out or Path(path).parent) / f"{ds.attrs['name']}_bifurcation_{y}.{fmt}"
-    target.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(target, dpi=130, bbox_inches="tight")
+    from jaxwalk.files import write_atomically
+
+    write_atomically(target, lambda p: fig.savefig(p, dpi=130, bbox_inches="tight"))  # never half a figure
     plt.close(fig)
     return target
 

@@ -15,7 +15,6 @@ it was switched from); per point ``parameter`` (the continuation parameter),
 from __future__ import annotations
 
 import dataclasses
-import datetime as _dt
 from pathlib import Path
 
 import jax
@@ -29,7 +28,7 @@ from jaxwalk.branches.config import ContinueConfig
 from jaxwalk.branchpoints import BranchPoints, locate_on_branches, switch_at_flip
 from jaxwalk.models import get_model
 from jaxwalk.status import flag_attributes
-from jaxwalk.sweep.dataset import package_versions, write_zarr
+from jaxwalk.files import check_output, provenance, write_zarr
 
 
 def run_branches(config: ContinueConfig):
@@ -132,9 +131,8 @@ def build_dataset(config: ContinueConfig, branches: Branch, labels: BranchPoints
         "fixed_parameters": " ".join(f"{k}={v!r}" for k, v in config.fixed.items() if k != config.parameter),
         "bounds": list(config.bounds), "starts": list(config.starts), "direction": config.direction,
         "location_tol": config.tol, "options": repr(config.options),
-        "config": config.text or "", "config_source": config.source, "command": command or "",
-        "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
-        **{f"{name}_version": v for name, v in package_versions().items()},
+        "config": config.text or "", "config_source": config.source,
+        **provenance(command, "jaxwalk.branches.run_continue"),
     }
     # Section names as an attribute: a string coordinate has no zarr v3 data type yet.
     return xr.Dataset({k: (d, np.asarray(x), a) for k, (d, x, a) in data.items()}, attrs=attrs)
@@ -142,8 +140,6 @@ def build_dataset(config: ContinueConfig, branches: Branch, labels: BranchPoints
 
 def run_continue(config: ContinueConfig, out: str | Path, *, overwrite: bool = False, command: str | None = None):
     """Run ``config`` and write ``out/<name>_branches.zarr``; returns ``(path, dataset)``."""
-    target = Path(out) / f"{config.name}_branches.zarr"
-    if target.exists() and not overwrite:
-        raise FileExistsError(f"'{target}' already exists (use --overwrite)")
+    target = check_output(out, f"{config.name}_branches", overwrite=overwrite)  # before computing
     ds = build_dataset(config, *run_branches(config), command=command)
     return write_zarr(ds, target, overwrite=overwrite), ds

@@ -58,5 +58,7 @@ def draw_paths(ds: xr.Dataset, target) -> None:
         if best >= 0:
             ax.plot(xs[best, s], ys[best, s], "o", color=line.get_color(), mec="k", ms=6)
     ax.set_title(ds.attrs.get("title", "optimisation"), fontsize=9)
-    fig.savefig(target, dpi=120)
+    from jaxwalk.files import write_atomically
+
+    write_atomically(target, lambda path: fig.savefig(path, dpi=120))  # never half a figure
     plt.close(fig)

@@ -25,9 +25,11 @@ import xarray as xr
 from jaxwalk import analyses, outputs
 from jaxwalk.optimize.config import OptimizeConfig
 from jaxwalk.optimize.engine import QUANTITIES, Path, optimise
-from jaxwalk.status import Status, flag_attributes
 from jaxwalk.errors import ConfigError
-from jaxwalk.sweep.dataset import output_units, package_versions, units_note, write_zarr
+from jaxwalk.files import check_output as check_dataset_output
+from jaxwalk.files import provenance, write_zarr
+from jaxwalk.status import Status, flag_attributes
+from jaxwalk.sweep.dataset import output_units, units_note
 
 _NEWTON_FIELDS = {"newton_tol": "tol", "max_newton_iter": "max_iter"}
 _SOLVER_FIELDS = {"rtol": "rtol", "atol": "atol"}
@@ -45,13 +47,8 @@ def solver_options(config: OptimizeConfig):
 
 def check_output(out_dir, name: str, overwrite: bool) -> tuple[FilePath, FilePath]:
     """``(dataset, figure)`` paths if they can be written (nothing created). Raises ConfigError."""
-    from jaxwalk.sweep.runner import check_output as check_sweep_output
-
-    target = check_sweep_output(out_dir, name, overwrite=overwrite)
     figure = FilePath(out_dir) / f"{name}.png"
-    if figure.exists() and not overwrite:
-        raise ConfigError(f"'{figure}' already exists (pass --overwrite to replace it)")
-    return target, figure
+    return check_dataset_output(out_dir, name, overwrite=overwrite, others=[figure]), figure
 
 
 def load_heatmap(path, names) -> xr.Dataset:
@@ -139,8 +136,7 @@ def build_dataset(config: OptimizeConfig, model, path: Path, heatmap: xr.Dataset
             "method": "projected Adam (optax) in parameters scaled to their bounds; gradients by the implicit "
             "function theorem at each fixed point; held quantities by an augmented Lagrangian",
             "config": config.to_json(),
-            "command": command or "",
-            **{f"{k}_version": v for k, v in {**package_versions(), "optax": _optax_version()}.items()},
+            **provenance(command, "jaxwalk.optimize.run_optimize", extra_versions=("optax",)),
         }
     )
     return ds
@@ -156,15 +152,6 @@ def describe_heatmap(heatmap: xr.Dataset) -> xr.Dataset:
     }
     heatmap["heatmap_status"].attrs = {"long_name": "status", "description": "outcome at this background grid point", **flag_attributes()}
     return heatmap
-
-
-def _optax_version() -> str:
-    import importlib.metadata
-
-    try:
-        return importlib.metadata.version("optax")
-    except importlib.metadata.PackageNotFoundError:
-        return "not installed"
 
 
 def run_optimize(config: OptimizeConfig, out_dir, *, heatmap_path=None, heatmap: bool = True, plot: bool = True,

@@ -2,15 +2,16 @@
 
 One file per figure, ``<dataset name>_<variable>_<kind>.<format>`` (for example
 ``flatfoot_r_lf_lambda_max_heatmap.png``), written to a hidden temporary file
-in the same directory and renamed into place, so a reader never sees half a
-figure and a failed draw leaves nothing behind.
+in the same directory and renamed into place (:func:`jaxwalk.files.write_atomically`),
+so a reader never sees half a figure and a failed draw leaves nothing behind.
 """
 
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
+
+from jaxwalk.files import write_atomically
 
 #: File formats ``jaxwalk plot --format`` writes.
 FORMATS = ("png", "pdf", "svg")
@@ -25,24 +26,10 @@ def figure_path(out_dir: str | os.PathLike, dataset_name: str, variable: str, ki
 
 def save_figure(fig, path: str | os.PathLike, fmt: str = "png", *, dpi: int = DPI) -> Path:
     """Write ``fig`` (a :class:`matplotlib.figure.Figure`) to ``path`` as ``fmt``, atomically."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    try:
-        # Metadata without a date: the same data gives the same file.
-        metadata = {"Software": "jaxwalk"} if fmt == "png" else {"Creator": "jaxwalk"}
-        if fmt == "pdf":
-            metadata["CreationDate"] = None
-        elif fmt == "svg":
-            metadata = {"Creator": "jaxwalk", "Date": None}
-        fig.savefig(tmp, format=fmt, dpi=dpi, metadata=metadata)
-        # mkstemp makes the file private (0600); the figure gets what a plain
-        # open() would have given it under the user's umask.
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
-    return path
+    # Metadata without a date: the same data gives the same file.
+    metadata = {"Software": "jaxwalk"} if fmt == "png" else {"Creator": "jaxwalk"}
+    if fmt == "pdf":
+        metadata["CreationDate"] = None
+    elif fmt == "svg":
+        metadata = {"Creator": "jaxwalk", "Date": None}
+    return write_atomically(path, lambda tmp: fig.savefig(tmp, format=fmt, dpi=dpi, metadata=metadata))

@@ -161,10 +161,9 @@ def _start(config: SimulateConfig, gait) -> dict[str, Any]:
 
 def _attributes(config: SimulateConfig, model: Walker, units, *, gait, command, created, solver) -> dict[str, Any]:
     """The dataset's attributes: the model, the config, the start, provenance."""
-    from jaxwalk.sweep.dataset import package_versions, units_note
+    from jaxwalk.files import provenance
+    from jaxwalk.sweep.dataset import units_note
 
-    created_s = created.isoformat(timespec="seconds")
-    versions = package_versions()
     return {
         "title": f"jaxwalk simulation '{config.name}' of the {model.name} model",
         "Conventions": "CF-1.10",
@@ -185,8 +184,5 @@ def _attributes(config: SimulateConfig, model: Walker, units, *, gait, command, 
         "config": config.to_json(),
         "config_toml": config.text if config.text is not None else "",
         "config_source": config.source,
-        "created": created_s,
-        "command": command or "",
-        "history": f"{created_s}: {command or 'jaxwalk.simulate.run_simulation'}",
-        **{f"{name}_version": v for name, v in versions.items()},
+        **provenance(command, "jaxwalk.simulate.run_simulation", created=created),
     }

@@ -1,13 +1,14 @@
-"""The files a simulation writes: their paths, the checks before computing,
-and writing each one atomically."""
+"""The files a simulation writes: their paths and the checks before computing
+(both by :mod:`jaxwalk.files`, which also writes them atomically)."""
 
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 
 from jaxwalk.errors import ConfigError
+from jaxwalk.files import check_output
+from jaxwalk.files import write_atomically as write_atomically  # where callers have found it
 from jaxwalk.walker import Walker, missing
 
 
@@ -25,13 +26,8 @@ def output_paths(out_dir: str | os.PathLike, name: str, *, plot: bool = True, gi
 
 def check_outputs(out_dir, name: str, *, plot: bool = True, gif: bool = True, overwrite: bool = False) -> dict[str, Path]:
     """:func:`output_paths` if they can be written; creates nothing. Raises :class:`ConfigError`."""
-    from jaxwalk.sweep.runner import check_output
-
-    check_output(out_dir, f"{name}_trajectory", overwrite=overwrite)  # the directory, and the dataset
     paths = output_paths(out_dir, name, plot=plot, gif=gif)
-    for path in paths.values():
-        if (path.exists() or path.is_symlink()) and not overwrite:
-            raise ConfigError(f"'{path}' already exists (pass --overwrite to replace it)")
+    check_output(out_dir, f"{name}_trajectory", overwrite=overwrite, others=paths.values())
     return paths
 
 
@@ -40,17 +36,3 @@ def check_drawable(model: Walker) -> None:
     reason = missing(model, "drawing")
     if reason:
         raise ConfigError(f"model '{model.name}' {reason} (pass --no-plot --no-gif for the dataset alone)")
-
-
-def write_atomically(target: Path, write) -> None:
-    """``write(path)`` into a hidden directory beside ``target``, then rename it into place."""
-    import shutil
-
-    target.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent))
-    try:
-        path = tmp / target.name
-        write(path)
-        os.replace(path, target)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)

@@ -12,7 +12,8 @@ import numpy as np
 from jaxwalk.models import get_model
 from jaxwalk.simulate.config import SimulateConfig
 from jaxwalk.simulate.dataset import build_trajectory_dataset
-from jaxwalk.simulate.output import check_drawable, check_outputs, write_atomically
+from jaxwalk.files import write_atomically
+from jaxwalk.simulate.output import check_drawable, check_outputs
 from jaxwalk.simulate.recorder import Trajectory, record_walk
 from jaxwalk.simulate.start import GaitNotFound, find_start_gait, initial_state
 from jaxwalk.status import STATUS_MEANINGS, Status, describe
@@ -67,7 +68,7 @@ def run_simulation(
     with tqdm(total=config.steps, unit="step", desc=desc, disable=not progress, file=sys.stderr) as bar:
         traj = record_walk(model, params, y0, phase0, ctx0, config.steps, config.dt, solver, progress=lambda: bar.update(1))
 
-    from jaxwalk.sweep.dataset import write_zarr
+    from jaxwalk.files import write_zarr
 
     ds = build_trajectory_dataset(config, model, traj, gait=gait, command=command, solver=solver)
     write_zarr(ds, paths["dataset"], overwrite=overwrite)

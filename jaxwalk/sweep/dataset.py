@@ -1,4 +1,4 @@
-"""The sweep dataset: its layout, its attributes, and an atomic zarr write.
+"""The sweep dataset: its layout and its attributes (written by :func:`jaxwalk.files.write_zarr`).
 
 Layout (see ``docs/sweeps.md``), for grid shape ``S`` (one dimension per swept
 parameter, in config order) and ``n_v = len(model.section_names)``: one variable
@@ -16,26 +16,17 @@ Where ``status != 0`` every float variable is NaN; a NaN never comes with status
 from __future__ import annotations
 
 import datetime as _dt
-import importlib.metadata
 import json
-import os
-import platform
-import shutil
-import tempfile
-import warnings
-from pathlib import Path
 from typing import Mapping
 
 import numpy as np
 import xarray as xr
 
-import jaxwalk
 from jaxwalk import analyses
+from jaxwalk.files import package_versions as package_versions, provenance
+from jaxwalk.files import write_zarr as write_zarr  # where tests and callers have found it
 from jaxwalk.sweep.config import SweepConfig
 from jaxwalk.walker import Walker
-
-#: Packages whose versions are written to every dataset.
-VERSIONED = ("jax", "jaxlib", "diffrax", "equinox", "optimistix", "numpy", "xarray", "zarr")
 
 
 def output_units(model: Walker) -> dict[str, str]:
@@ -61,18 +52,6 @@ def units_note(model: Walker) -> str:
             "sqrt(leg length / g), speeds in sqrt(g leg length); angles in rad"
         )
     return f"lengths in {u['length']}, times in {u['time']}, angles in rad; other parameters as their units say"
-
-
-def package_versions() -> dict[str, str]:
-    """``{"jaxwalk": ..., "jax": ..., ..., "python": ...}`` without importing the packages."""
-    out = {"jaxwalk": jaxwalk.__version__}
-    for name in VERSIONED:
-        try:
-            out[name] = importlib.metadata.version(name)
-        except importlib.metadata.PackageNotFoundError:
-            out[name] = "not installed"
-    out["python"] = platform.python_version()
-    return out
 
 
 def build_dataset(
@@ -126,7 +105,6 @@ def coordinates(config: SweepConfig, model: Walker) -> dict[str, tuple]:
 def dataset_attributes(config: SweepConfig, model: Walker, *, command: str | None, created: _dt.datetime,
                        options: Mapping | None) -> dict[str, object]:
     """The global attributes: what was swept and how, the config, provenance and package versions."""
-    created_s = created.isoformat(timespec="seconds")
     return {
         "title": f"jaxwalk sweep '{config.name}' of the {model.name} model",
         "Conventions": "CF-1.10",
@@ -144,45 +122,5 @@ def dataset_attributes(config: SweepConfig, model: Walker, *, command: str | Non
         "analysis_options": json.dumps(options or {}, default=str),
         "config_source": config.source,
         "config_toml": config.text if config.text is not None else "",
-        "created": created_s,
-        "command": command or "",
-        "history": f"{created_s}: {command or 'jaxwalk.sweep.run_sweep'}",
-        **{f"{name}_version": v for name, v in package_versions().items()},
+        **provenance(command, "jaxwalk.sweep.run_sweep", created=created),
     }
-
-
-def write_zarr(ds: xr.Dataset, target: str | Path, *, overwrite: bool = False) -> Path:
-    """Write ``ds`` to the zarr v3 store ``target`` (consolidated metadata), atomically.
-
-    The store is written to a hidden temporary directory beside ``target`` and
-    renamed into place, so a failure leaves no half-written ``target``; an
-    existing ``target`` is replaced only with ``overwrite``.
-
-    Raises:
-        FileExistsError: ``target`` exists and ``overwrite`` is false.
-    """
-    target = Path(target)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent))
-    try:
-        store = tmp / target.name
-        with warnings.catch_warnings():
-            # Consolidated metadata is a zarr-python extension to the v3 spec; xarray
-            # reads it, and without it every open warns and lists the store.
-            warnings.filterwarnings("ignore", message="Consolidated metadata is currently not part")
-            ds.to_zarr(store, mode="w-", zarr_format=3, consolidated=True)
-        if target.exists() or target.is_symlink():
-            if not overwrite:
-                raise FileExistsError(f"'{target}' already exists")
-            old = tmp / "replaced"
-            os.rename(target, old)
-            try:
-                os.rename(store, target)
-            except BaseException:
-                os.rename(old, target)
-                raise
-        else:
-            os.rename(store, target)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
-    return target

@@ -50,6 +50,7 @@ from jaxwalk import analyses
 from jaxwalk.analyses import gait, step_down
 from jaxwalk.analyses.step_down import ANALYSIS as step_down_analysis
 from jaxwalk.errors import ConfigError
+from jaxwalk.files import check_output as check_output  # the output directory and dataset check
 from jaxwalk.models import get_model
 from jaxwalk.sweep.config import DEFAULT_MAX_POINTS, SweepConfig, load_config
 
@@ -280,31 +281,6 @@ def _as_attribute(options) -> dict:
     record = dataclasses.asdict(options)
     record.update(dict(record.pop("more", ())))
     return record
-
-
-def check_output(out_dir: str | os.PathLike, name: str, *, overwrite: bool = False) -> Path:
-    """``out_dir/<name>.zarr`` if it can be written; creates nothing.
-
-    Raises:
-        ConfigError: ``out_dir`` is not a directory or not writable, or the dataset
-            exists and ``overwrite`` is false.
-    """
-    out = Path(out_dir)
-    target = out / f"{name}.zarr"
-    if out.exists() and not out.is_dir():
-        raise ConfigError(f"--out '{out}' exists and is not a directory")
-    existing = out
-    while not existing.exists():
-        if existing.parent == existing:
-            break
-        existing = existing.parent
-    if not existing.is_dir():
-        raise ConfigError(f"--out '{out}': '{existing}' is not a directory")
-    if not os.access(existing, os.W_OK | os.X_OK):
-        raise ConfigError(f"--out '{out}': '{existing}' is not writable")
-    if (target.exists() or target.is_symlink()) and not overwrite:
-        raise ConfigError(f"'{target}' already exists (pass --overwrite to replace it)")
-    return target
 
 
 def check_results(

@@ -130,7 +130,7 @@ class ChunkStore:
                 ``overwrite``), or the dataset would not fit on the disk.
         """
         from jaxwalk.grid import chunk_count, chunk_shape
-        from jaxwalk.sweep.dataset import package_versions
+        from jaxwalk.files import package_versions
 
         shape = config.shape
         along = None if config.continuation is None else config.dims.index(config.continuation)

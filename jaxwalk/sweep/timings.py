@@ -10,11 +10,10 @@ file means no estimate, never an error.
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from pathlib import Path
 
 from jaxwalk import cache
+from jaxwalk.files import write_atomically
 
 FILE = "sweep-timings.json"
 
@@ -51,10 +50,7 @@ def record(config, seconds: float, points: int, compiled: bool) -> None:
     entry = data.setdefault(kind(config), {})
     entry["compiling" if compiled else "warm"] = {"seconds_per_point": seconds / points, "points": points}
     try:
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-")
-        with os.fdopen(fd, "w") as f:
-            json.dump(data, f, indent=1)
-        os.replace(tmp, path)
+        write_atomically(path, lambda tmp: tmp.write_text(json.dumps(data, indent=1)))
     except OSError:
         pass
 
