@@ -17,18 +17,45 @@ line, prefixed by the file, with a "did you mean" hint for a misspelt key.
 from __future__ import annotations
 
 import dataclasses
-import math
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Annotated, Any, ClassVar, Mapping
 
-from jaxwalk.analyses.base import did_you_mean
+from pydantic import Field
+
 from jaxwalk.analyses.basin import DEFAULTS, check_section
-from jaxwalk.sweep.config import ConfigError, _kind, _name, _params, model_of, parse_toml, read_config_text
+from jaxwalk.configs import Table, TopLevel, check_name, check_params, failing, field, model_of, parse_toml, read_config_text
 
-TOP_LEVEL_KEYS = ("name", "model", "params", "basin")
-BASIN_KEYS = ("x", "y", "span", "points", "steps", "tol", "scale")
 #: Largest image: starts are walked at once (one array of them).
 MAX_STARTS = 1_000_000
+
+_Positive = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+
+
+class Document(TopLevel):
+    """The file's top level."""
+
+    basin: Any = None
+
+
+class Basin(Table):
+    """``[basin]``: the image's coordinates, extent and resolution, the walk's limits."""
+
+    where: ClassVar[str] = "[basin]"
+    must: ClassVar[str] = "{where} {key} must be {what}, got {value!r}"
+
+    x: str | None = field(None, "a section coordinate's name", message="{where} {key} must be {what} ({names}), got {kind}")
+    y: str | None = field(None, "a section coordinate's name", message="{where} {key} must be {what} ({names}), got {kind}")
+    span: Annotated[list[_Positive], Field(min_length=2, max_length=2)] = field(
+        what="two positive numbers [x, y]",
+        missing="[basin]: missing 'span' (half-widths about the fixed point in the coordinates' own units, e.g. span = [0.03, 0.03])")
+    points: Annotated[list[int], Field(min_length=2, max_length=2)] = field([101, 101], "two integers [x, y]")
+    steps: int = field(DEFAULTS["steps"], "a positive integer", ge=1)
+    tol: float = field(DEFAULTS["tol"], "a positive number (scaled section norm)", gt=0, allow_inf_nan=False)
+    scale: list[_Positive] | None = field(None, "positive numbers")
+
+
+TOP_LEVEL_KEYS = Document.keys()
+BASIN_KEYS = Basin.keys()
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -68,56 +95,22 @@ def load_basin_config(path: str | Path) -> BasinConfig:
 
 def parse_basin_config(data: Mapping[str, Any], *, source: str = "<config>", text: str | None = None) -> BasinConfig:
     """Check a parsed config and resolve it."""
-
-    def fail(message: str) -> ConfigError:
-        return ConfigError(f"{source}: {message}")
-
-    for key in data:
-        if key not in TOP_LEVEL_KEYS:
-            raise fail(f"unknown top-level key '{key}'{did_you_mean(key, TOP_LEVEL_KEYS)} (allowed: {', '.join(TOP_LEVEL_KEYS)})")
-    name = _name(data, fail)
+    fail = failing(source)
+    Document.check(data, fail)
+    name = check_name(data, fail)
     model_name, model = model_of(data, fail, example="simplest")
-    if not isinstance(data.get("params", {}), Mapping):
-        raise fail(f"'params' must be a table ([params]), got {_kind(data['params'])}")
     fixed = {p: float(spec.default) for p, spec in model.param_specs.items()}
-    fixed.update(_params(data.get("params", {}), model.param_specs, model_name, fail))
-    table = data.get("basin")
-    if not isinstance(table, Mapping):
+    fixed.update(check_params(data.get("params", {}), model.param_specs, model_name, fail))
+    if not isinstance(data.get("basin"), Mapping):
         raise fail("[basin] is missing (e.g. x = \"alpha_1\", y = \"alpha_1_dot\", span = [0.03, 0.03])")
-    for key in table:
-        if key not in BASIN_KEYS:
-            raise fail(f"[basin]: unknown key '{key}'{did_you_mean(key, BASIN_KEYS)} (allowed: {', '.join(BASIN_KEYS)})")
     names = tuple(model.section_names)
-    x, y = table.get("x", names[0]), table.get("y", names[1])
-    for axis, value in (("x", x), ("y", y)):
-        if not isinstance(value, str):
-            raise fail(f"[basin] {axis} must be a section coordinate's name ({', '.join(names)}), got {_kind(value)}")
-    check_section({"coordinates": [x, y], "scale": table.get("scale")}, model, lambda m: fail(m.replace("[analysis] basin", "[basin]")))
+    table = Basin.check(data["basin"], fail, names=", ".join(names))
+    x, y = table.x or names[0], table.y or names[1]
+    check_section({"coordinates": [x, y], "scale": table.scale}, model, fail, where="[basin]")
     if x == y:
         raise fail(f"[basin] x and y must be different section coordinates, both are '{x}'")
-    span = _pair(table, "span", None, fail, float)
-    points = _pair(table, "points", [101, 101], fail, int)
-    if any(n < 2 for n in points) or points[0] * points[1] > MAX_STARTS:
-        raise fail(f"[basin] points must be two integers >= 2 with at most {MAX_STARTS} starts in all, got {list(points)}")
-    steps, tol = table.get("steps", DEFAULTS["steps"]), table.get("tol", DEFAULTS["tol"])
-    if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
-        raise fail(f"[basin] steps must be a positive integer, got {steps!r}")
-    if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not 0 < tol < math.inf:
-        raise fail(f"[basin] tol must be a positive number (scaled section norm), got {tol!r}")
-    scale = table.get("scale", [1.0] * len(names))
-    if any(isinstance(s, bool) or not isinstance(s, (int, float)) or not 0 < s < math.inf for s in scale):
-        raise fail(f"[basin] scale must be positive numbers, got {scale!r}")
-    return BasinConfig(name=name, model=model_name, fixed=fixed, x=names.index(x), y=names.index(y), span=span,
-                       points=points, steps=int(steps), tol=float(tol), scale=tuple(float(s) for s in scale),
-                       source=source, text=text)
-
-
-def _pair(table, key: str, default, fail, kind) -> tuple:
-    value = table.get(key, default)
-    if value is None:
-        raise fail(f"[basin]: missing '{key}' (half-widths about the fixed point in the coordinates' own units, e.g. {key} = [0.03, 0.03])")
-    ok = isinstance(value, list) and len(value) == 2 and all(not isinstance(v, bool) and isinstance(v, (int, float) if kind is float else int) for v in value)
-    if not ok or (kind is float and not all(0 < v < math.inf for v in value)):
-        what = "two positive numbers" if kind is float else "two integers"
-        raise fail(f"[basin] {key} must be {what} [x, y], got {value!r}")
-    return tuple(kind(v) for v in value)
+    if any(n < 2 for n in table.points) or table.points[0] * table.points[1] > MAX_STARTS:
+        raise fail(f"[basin] points must be two integers >= 2 with at most {MAX_STARTS} starts in all, got {table.points}")
+    return BasinConfig(name=name, model=model_name, fixed=fixed, x=names.index(x), y=names.index(y), span=tuple(table.span),
+                       points=tuple(table.points), steps=table.steps, tol=table.tol,
+                       scale=tuple(table.scale or [1.0] * len(names)), source=source, text=text)

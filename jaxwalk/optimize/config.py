@@ -38,23 +38,23 @@ from typing import Any, Mapping
 import numpy as np
 
 from jaxwalk.optimize.engine import OPTIMIZERS, OWNERS, QUANTITIES, Problem
-from jaxwalk.sweep.config import (
-    SOLVER_KEYS,
-    ConfigError,
-    GridAxis,
-    _axis,
-    _axis_spec,
-    _did_you_mean,
-    _kind,
-    _name,
-    _params,
-    model_of,
-    parse_toml,
-    read_config_text,
-)
+from jaxwalk.analyses import did_you_mean as _did_you_mean
+from jaxwalk.configs import Solver, TopLevel, check_name, check_params, failing, field, kind, model_of, parse_toml, read_config_text
+from jaxwalk.sweep.config import GridAxis, _axis, _axis_spec
 from jaxwalk.walker import check_supported
 
-TOP_LEVEL_KEYS = ("name", "model", "params", "optimize", "starts", "heatmap", "analysis")
+
+
+class Document(TopLevel):
+    """An optimisation file's top level."""
+
+    optimize: dict[str, Any] = field({}, "what to optimise")
+    starts: dict[str, Any] = field({}, "where to start")
+    heatmap: dict[str, Any] = field({}, "the background grid")
+    analysis: dict[str, Any] = field({}, "solver settings")
+
+
+TOP_LEVEL_KEYS = Document.keys()
 OPTIMIZE_KEYS = ("objective", "bounds", "iterations", "learning_rate", "optimizer", "hold", "penalty", "dual_every", "max_retries")
 #: Most starts and heatmap points accepted (each start is a gait search with derivatives per iteration).
 MAX_STARTS = 4096
@@ -139,21 +139,14 @@ def load_optimize_config(path: str | Path) -> OptimizeConfig:
 def parse_optimize_config(data: Mapping[str, Any], *, source: str = "<config>", text: str | None = None) -> OptimizeConfig:
     """Check a parsed TOML table and resolve it. Raises ``ConfigError`` (one line)."""
 
-    def fail(message: str) -> ConfigError:
-        return ConfigError(f"{source}: {message}")
-
+    fail = failing(source)
     if not isinstance(data, Mapping):
         raise fail("a config must be a TOML table")
-    for key in data:
-        if key not in TOP_LEVEL_KEYS:
-            raise fail(f"unknown top-level key '{key}'{_did_you_mean(key, TOP_LEVEL_KEYS)} (allowed: {', '.join(TOP_LEVEL_KEYS)})")
-    for key in ("params", "optimize", "starts", "heatmap", "analysis"):
-        if key in data and not isinstance(data[key], Mapping):
-            raise fail(f"'{key}' must be a table ([{key}]), got {_kind(data[key])}")
-    name = _name(data, fail)
+    Document.check(data, fail)
+    name = check_name(data, fail)
     model_name, model = model_of(data, fail, example="flatfoot")
     specs = model.param_specs
-    params = _params(data.get("params", {}), specs, model_name, fail)
+    params = check_params(data.get("params", {}), specs, model_name, fail)
     table = data.get("optimize")
     if not table:
         raise fail("[optimize] is missing or empty: give at least bounds = { <parameter> = [lower, upper] }")
@@ -161,7 +154,7 @@ def parse_optimize_config(data: Mapping[str, Any], *, source: str = "<config>", 
     _check_capabilities(problem, model, fail)
     starts, start_fixed = _starts(data.get("starts", {}), problem, specs, params, model_name, fail)
     heatmap, continuation = _heatmap(data.get("heatmap", {}), specs, model_name, fail)
-    solver = _solver(data.get("analysis", {}), fail)
+    solver = Solver.check(data.get("analysis", {}), fail).model_dump(exclude_none=True)
     fixed = {k: float(s.default) for k, s in specs.items() if k not in problem.names}
     fixed.update(params)
     return OptimizeConfig(
@@ -204,7 +197,7 @@ def _problem(table, specs, params, model_name, fail) -> Problem:
         names.append(pname), lower.append(lo), upper.append(hi)
     hold = table.get("hold", {})
     if not isinstance(hold, Mapping):
-        raise fail(f"{where}: hold must be a table, e.g. hold = {{ speed = 0.09 }}, got {_kind(hold)}")
+        raise fail(f"{where}: hold must be a table, e.g. hold = {{ speed = 0.09 }}, got {kind(hold)}")
     for q, target in hold.items():
         if q not in QUANTITIES or q == "lambda_max":
             allowed = ", ".join(x for x in QUANTITIES if x != "lambda_max")
@@ -296,17 +289,3 @@ def _heatmap(table, specs, model_name, fail):
     elif not isinstance(continuation, str) or continuation not in specs_out:
         raise fail(f"[heatmap]: continuation must be one of its axes ({', '.join(specs_out) or 'none given'}) or false, got {continuation!r}")
     return axes, continuation
-
-
-def _solver(table, fail) -> dict[str, float | int]:
-    out = {}
-    for key, value in table.items():
-        if key not in SOLVER_KEYS:
-            raise fail(f"[analysis]: unknown key '{key}'{_did_you_mean(key, SOLVER_KEYS)} (allowed: {', '.join(SOLVER_KEYS)})")
-        if key == "max_newton_iter":
-            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                raise fail(f"[analysis]: {key} must be a positive integer, got {value!r}")
-        elif not _number(value) or value <= 0:
-            raise fail(f"[analysis]: {key} must be a positive number, got {value!r}")
-        out[key] = value
-    return out

@@ -19,30 +19,49 @@ import dataclasses
 import json
 import math
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Annotated, Any, ClassVar, Mapping
+
+from pydantic import Field
 
 import numpy as np
 
-from jaxwalk.sweep.config import (
-    ConfigError,
-    _did_you_mean,
-    _kind,
-    _name,
-    _params,
-    model_of,
-    parse_toml,
-    read_config_text,
-)
+from jaxwalk.configs import Table, TopLevel, check_name, check_params, failing, field, model_of, parse_toml, read_config_text
 from jaxwalk.walker import NEEDS, Walker, missing
 
-SIMULATE_KEYS = ("steps", "drop", "dt", "v0")
-TOP_LEVEL_KEYS = ("name", "model", "params", "simulate")
 #: Most steps one walk may take (the trajectory is held in memory).
 MAX_STEPS = 1000
 #: Allowed output sampling interval, in units of the model's time scale sqrt(L/g).
 DT_RANGE = (1e-4, 1.0)
 #: Default sampling interval, in time scales (rounded to one significant digit).
 DEFAULT_DT_SCALES = 0.02
+#: The table the command reads, as messages name it.
+_WHERE = "[simulate]"
+
+
+class Document(TopLevel):
+    """A simulation file's top level."""
+
+    sections_named: ClassVar[bool] = True
+
+    simulate: dict[str, Any] = field({}, "the walk")
+
+
+class Simulate(Table):
+    """``[simulate]``; ranges that depend on the model (``dt``, ``drop``) are checked after."""
+
+    where: ClassVar[str] = _WHERE
+    must: ClassVar[str] = "{where} {key} must be {what}, got {value!r}"
+
+    steps: int | None = field(None, "a positive integer", ge=1)
+    drop: float = field(0.0, "a number >= 0", ge=0, allow_inf_nan=False, message=(
+        "{where} drop must be a number >= 0 (a vertical step-down at the first touchdown, in {length}), got {value!r}"))
+    dt: float | None = field(None, "the output sampling interval", allow_inf_nan=False, message="{dt_range}, got {value!r}")
+    v0: list[Annotated[float, Field(allow_inf_nan=False)]] | None = field(
+        None, "the start", message="{where} v0 must be an array of {n_v} finite numbers ({names}), got {value!r}")
+
+
+SIMULATE_KEYS = Simulate.keys()
+TOP_LEVEL_KEYS = Document.keys()
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -108,111 +127,89 @@ def parse_simulate_config(
     """Check a config given as a mapping and resolve it (``steps``/``drop`` override
     ``[simulate]``). Raises :class:`ConfigError` with a one-line message."""
 
-    def fail(message: str) -> ConfigError:
-        return ConfigError(f"{source}: {message}")
-
-    _check_layout(data, fail)
-    name = _name(data, fail)
+    fail = failing(source)
+    if not isinstance(data, Mapping):
+        raise fail("a config must be a TOML table")
+    if "grid" in data:
+        raise fail("[grid] is for sweeps (jaxwalk sweep); a simulation runs one parameter set: put fixed values in [params]")
+    Document.check(data, fail)
+    name = check_name(data, fail)
     model_name, model = model_of(data, fail, example="kneed")
     specs = model.param_specs
-    params = _params(data.get("params", {}), specs, model_name, fail)
+    params = check_params(data.get("params", {}), specs, model_name, fail)
     fixed = {p: float(spec.default) for p, spec in specs.items()}
     fixed.update(params)
-
-    table = data.get("simulate", {})
-    for key in table:
-        if key not in SIMULATE_KEYS:
-            raise fail(f"{_WHERE}: unknown key '{key}'{_did_you_mean(key, SIMULATE_KEYS)} (allowed: {', '.join(SIMULATE_KEYS)})")
+    scale = float(model.time_scale({k: np.float64(v) for k, v in fixed.items()}))
+    names = model.section_names
+    table = Simulate.check(data.get("simulate", {}), fail, length=model.units["length"], n_v=len(names),
+                           names=", ".join(names), dt_range=_dt_range(model, scale))
     return SimulateConfig(
-        name=name, model=model_name, params=params, fixed=fixed, steps=_steps(table, steps, fail),
-        drop=_drop(table, drop, model, fail), dt=_dt(table, model, fixed, fail), v0=_v0(table, model, fail),
+        name=name, model=model_name, params=params, fixed=fixed, steps=_steps(table.steps, steps, fail),
+        drop=_drop(table.drop, drop, model, fail), dt=_dt(table.dt, model, scale, fail), v0=_v0(table.v0, model, fail),
         source=source, text=text,
     )
 
 
-#: The table the command reads, as messages name it.
-_WHERE = "[simulate]"
-
-
-def _check_layout(data, fail) -> None:
-    """A TOML table of the known top-level keys, ``[params]`` and ``[simulate]`` tables."""
-    if not isinstance(data, Mapping):
-        raise fail("a config must be a TOML table")
-    for key in data:
-        if key == "grid":
-            raise fail("[grid] is for sweeps (jaxwalk sweep); a simulation runs one parameter set: put fixed values in [params]")
-        if key not in TOP_LEVEL_KEYS:
-            kind = "section" if isinstance(data[key], Mapping) else "key"
-            raise fail(f"unknown top-level {kind} '{key}'{_did_you_mean(key, TOP_LEVEL_KEYS)} (allowed: {', '.join(TOP_LEVEL_KEYS)})")
-    for key in ("params", "simulate"):
-        if key in data and not isinstance(data[key], Mapping):
-            raise fail(f"'{key}' must be a table ([{key}]), got {_kind(data[key])}")
-
-
-def _steps(table, override: int | None, fail) -> int:
+def _steps(value: int | None, override: int | None, fail) -> int:
     """The step count: ``--steps`` over ``[simulate] steps``; the file's value is
     checked even where the command line overrides it."""
 
-    def check(n, what):
-        if isinstance(n, bool) or not isinstance(n, int) or n < 1:
-            raise fail(f"{what} must be a positive integer, got {n!r}")
+    def limit(n, what):
         if n > MAX_STEPS:
             raise fail(f"{what} = {n} is more than the limit of {MAX_STEPS} steps")
         return n
 
-    n = check(table["steps"], f"{_WHERE} steps") if "steps" in table else None
+    n = limit(value, f"{_WHERE} steps") if value is not None else None
     if override is not None:
-        n = check(override, "--steps")
+        if isinstance(override, bool) or not isinstance(override, int) or override < 1:
+            raise fail(f"--steps must be a positive integer, got {override!r}")
+        n = limit(override, "--steps")
     if n is None:
         raise fail("no step count: give --steps N or [simulate] steps = N")
     return int(n)
 
 
-def _drop(table, override: float | None, model: Walker, fail) -> float:
+def _drop(value: float, override: float | None, model: Walker, fail) -> float:
     """The step-down at the first touchdown: ``--drop`` over ``[simulate] drop`` (both checked)."""
 
-    def check(h, what):
-        if isinstance(h, bool) or not isinstance(h, (int, float)) or not math.isfinite(h) or h < 0:
-            raise fail(f"{what} must be a number >= 0 (a vertical step-down at the first touchdown, in {model.units['length']}), got {h!r}")
+    def capable(h, what):
         reason = missing(model, NEEDS["drop"]) if h > 0 else None
         if reason:
             raise fail(f"{what}: model '{model.name}' {reason}")
         return h
 
-    h = check(table.get("drop", 0.0), f"{_WHERE} drop")
+    h = capable(value, f"{_WHERE} drop")
     if override is not None:
-        h = check(override, "--drop")
+        if isinstance(override, bool) or not isinstance(override, (int, float)) or not math.isfinite(override) or override < 0:
+            raise fail(f"--drop must be a number >= 0 (a vertical step-down at the first touchdown, in {model.units['length']}), "
+                       f"got {override!r}")
+        h = capable(override, "--drop")
     return float(h)
 
 
-def _dt(table, model: Walker, fixed: Mapping[str, float], fail) -> float:
-    """The sampling interval: within :data:`DT_RANGE` time scales; default
-    :data:`DEFAULT_DT_SCALES` of them, to one significant digit."""
-    scale = float(model.time_scale({k: np.float64(v) for k, v in fixed.items()}))
+def _dt_range(model: Walker, scale: float) -> str:
+    """The message of a bad ``dt``, without the value: the interval in the model's time units."""
     lo, hi = DT_RANGE[0] * scale, DT_RANGE[1] * scale
-    if "dt" not in table:
+    return (f"{_WHERE} dt (output sampling interval) must be a number from {lo:.3g} to {hi:.3g} "
+            f"{_time_unit(model)} ({DT_RANGE[0]:g} to {DT_RANGE[1]:g} times the time scale sqrt(L/g) = {scale:.4g})")
+
+
+def _dt(dt: float | None, model: Walker, scale: float, fail) -> float:
+    """The sampling interval: within :data:`DT_RANGE` time scales (``scale``: the
+    model's sqrt(L/g)); default :data:`DEFAULT_DT_SCALES` of them, to one significant digit."""
+    if dt is None:
         return float(f"{DEFAULT_DT_SCALES * scale:.1g}")
-    dt = table["dt"]
-    if isinstance(dt, bool) or not isinstance(dt, (int, float)) or not math.isfinite(dt) or not (lo <= dt <= hi):
-        raise fail(
-            f"{_WHERE} dt (output sampling interval) must be a number from {lo:.3g} to {hi:.3g} "
-            f"{_time_unit(model)} ({DT_RANGE[0]:g} to {DT_RANGE[1]:g} times the time scale sqrt(L/g) = {scale:.4g}), got {dt!r}"
-        )
+    if not DT_RANGE[0] * scale <= dt <= DT_RANGE[1] * scale:
+        raise fail(f"{_dt_range(model, scale)}, got {dt!r}")
     return float(dt)
 
 
-def _v0(table, model: Walker, fail) -> tuple[float, ...] | None:
+def _v0(v0: list[float] | None, model: Walker, fail) -> tuple[float, ...] | None:
     """``[simulate] v0``: as many finite numbers as the model has section coordinates, or ``None``."""
-    if "v0" not in table:
-        return None
-    v0 = table["v0"]
     names = model.section_names
-    ok = isinstance(v0, list) and len(v0) == len(names) and all(
-        not isinstance(x, bool) and isinstance(x, (int, float)) and math.isfinite(x) for x in v0
-    )
-    if not ok:
+    if v0 is not None and len(v0) != len(names):
         raise fail(f"{_WHERE} v0 must be an array of {len(names)} finite numbers ({', '.join(names)}), got {v0!r}")
-    return tuple(float(x) for x in v0)
+    return None if v0 is None else tuple(float(x) for x in v0)
 
 
 def _time_unit(model: Walker) -> str:

@@ -23,32 +23,51 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-import re
-import tomllib
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, ClassVar, Mapping
 
 import numpy as np
 
 from jaxwalk import analyses
 from jaxwalk.analyses import did_you_mean as _did_you_mean
+from jaxwalk.configs import Solver, Table, TopLevel, check_name, check_params, failing, field, human_bytes, kind, model_of, unknown_param
+from jaxwalk.configs import parse_toml as parse_toml, read_config_text as read_config_text  # the sweep API's names
 from jaxwalk.errors import ConfigError as ConfigError  # the error root, re-exported where it was
-from jaxwalk.models import get_model
 from jaxwalk.parameters import ParamSpec
 from jaxwalk.walker import check_supported
 
 #: Largest grid accepted by default (points); callers may pass their own ``max_points``.
 DEFAULT_MAX_POINTS = 10_000_000
 
-SECTIONS = ("params", "grid", "analysis")
-TOP_LEVEL_KEYS = ("name", "model", *SECTIONS)
 AXIS_KEYS = ("start", "stop", "num", "values")
-#: Solver settings passed through to the analysis when set (absent: its defaults).
-SOLVER_KEYS = ("rtol", "atol", "newton_tol", "max_newton_iter")
-#: ``[analysis]`` keys: the gait's, the plug-ins' (:mod:`jaxwalk.analyses`), the solver's.
-ANALYSIS_KEYS = ("stability", "continuation", "seed_axis", *analyses.keys(), *SOLVER_KEYS)
 
-_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*\Z")
+
+class Gait(Table):
+    """The gait's keys of ``[analysis]``."""
+
+    where: ClassVar[str] = "[analysis]"
+
+    stability: bool = field(True, "true or false")
+    continuation: bool | str = field(True, "a grid axis name or false")
+    seed_axis: bool | str = field(False, "a grid axis name or false")
+
+
+#: Solver settings passed through to the analysis when set (absent: its defaults).
+SOLVER_KEYS = Solver.keys()
+#: ``[analysis]`` keys: the gait's, the plug-ins' (:mod:`jaxwalk.analyses`), the solver's.
+ANALYSIS_KEYS = (*Gait.keys(), *analyses.keys(), *SOLVER_KEYS)
+
+
+class Document(TopLevel):
+    """A sweep file's top level."""
+
+    sections_named: ClassVar[bool] = True
+
+    grid: dict[str, Any] = field({}, "the swept parameters")
+    analysis: dict[str, Any] = field({}, "what to compute")
+
+
+TOP_LEVEL_KEYS = Document.keys()
 
 
 @dataclasses.dataclass(frozen=True)
@@ -178,31 +197,6 @@ def loads_config(text: str, *, source: str = "<config>", max_points: int = DEFAU
     return parse_config(parse_toml(text, source=source), source=source, text=text, max_points=max_points)
 
 
-def read_config_text(path: str | Path) -> str:
-    """The text of the config file at ``path`` (UTF-8). Raises :class:`ConfigError`."""
-    try:
-        raw = Path(path).read_bytes()
-    except FileNotFoundError:
-        raise ConfigError(f"config file '{path}' not found") from None
-    except IsADirectoryError:
-        raise ConfigError(f"config file '{path}' is a directory") from None
-    except OSError as err:
-        raise ConfigError(f"cannot read config file '{path}': {err.strerror or err}") from None
-    try:
-        return raw.decode("utf-8")
-    except UnicodeDecodeError:
-        raise ConfigError(f"{path}: not a UTF-8 text file") from None
-
-
-def parse_toml(text: str, *, source: str = "<config>") -> dict[str, Any]:
-    """TOML text as a dict. Raises :class:`ConfigError` (one line, with the position)."""
-    try:
-        return tomllib.loads(text)
-    except tomllib.TOMLDecodeError as err:
-        # tomllib's message carries "(at line L, column C)".
-        raise ConfigError(f"{source}: invalid TOML: {_one_line(err)}") from None
-
-
 def parse_config(
     data: Mapping[str, Any],
     *,
@@ -216,28 +210,19 @@ def parse_config(
         ConfigError: with a one-line message prefixed by ``source``.
     """
 
-    def fail(message: str) -> ConfigError:
-        return ConfigError(f"{source}: {message}")
-
+    fail = failing(source)
     if not isinstance(data, Mapping):
         raise fail("a config must be a TOML table")
     # Configs of the other commands, named by their own section.
     for key, command in (("continuation", "jaxwalk continue"), ("optimize", "jaxwalk optimize")):
         if isinstance(data.get(key), Mapping):
             raise fail(f"a [{key}] section makes this a '{command}' config, not a sweep: run {command} {source}")
-    for key in data:
-        if key not in TOP_LEVEL_KEYS:
-            kind = "section" if isinstance(data[key], Mapping) else "key"
-            raise fail(f"unknown top-level {kind} '{key}'{_did_you_mean(key, TOP_LEVEL_KEYS)} (allowed: {', '.join(TOP_LEVEL_KEYS)})")
-    for key in SECTIONS:
-        if key in data and not isinstance(data[key], Mapping):
-            raise fail(f"'{key}' must be a table ([{key}]), got {_kind(data[key])}")
-
-    name = _name(data, fail)
+    Document.check(data, fail)
+    name = check_name(data, fail)
     model_name, model = model_of(data, fail, example="simplest")
     specs: dict[str, ParamSpec] = model.param_specs
 
-    params = _params(data.get("params", {}), specs, model_name, fail)
+    params = check_params(data.get("params", {}), specs, model_name, fail)
     axes_raw = data.get("grid")
     if not axes_raw:
         raise fail("[grid] is missing or empty: sweep at least one parameter (e.g. gamma = { start = 0.002, stop = 0.015, num = 64 })")
@@ -272,50 +257,15 @@ def parse_config(
 # ---------------------------------------------------------------- sections
 
 
-def model_of(data: Mapping, fail, example: str):
-    """``(name, model)`` named by a config's ``model`` key; ``fail(message)`` otherwise."""
-    model_name = data.get("model")
-    if model_name is None:
-        raise fail(f"missing 'model' (e.g. model = \"{example}\")")
-    if not isinstance(model_name, str):
-        raise fail(f"'model' must be a string, got {_kind(model_name)}")
-    try:
-        return model_name, get_model(model_name)
-    except KeyError as err:
-        raise fail(err.args[0]) from None
-
-
-def _name(data, fail) -> str:
-    name = data.get("name")
-    if name is None:
-        raise fail("missing 'name' (the dataset name, e.g. name = \"slope_scan\")")
-    if not isinstance(name, str) or not _NAME.match(name):
-        raise fail(f"'name' must be a string of letters, digits, '_', '.', '-' (a file name), got {name!r}")
-    return name
-
-
-def _params(table, specs, model_name, fail) -> dict[str, float]:
-    out = {}
-    for key, value in table.items():
-        if key not in specs:
-            raise fail(f"[params]: {_unknown_param(key, specs, model_name)}")
-        try:
-            specs[key].check(value)
-        except ValueError as err:
-            raise fail(f"[params]: {err}") from None
-        out[key] = float(value)
-    return out
-
-
 def _axis_spec(axis, spec, specs, params, model_name, fail) -> dict[str, Any]:
     """The checked axis as written (floats); the values are made later, after the size check."""
     where = f"[grid] axis '{axis}'"
     if axis not in specs:
-        raise fail(f"[grid]: {_unknown_param(axis, specs, model_name)}")
+        raise fail(f"[grid]: {unknown_param(axis, specs, model_name)}")
     if axis in params:
         raise fail(f"parameter '{axis}' is both fixed in [params] and swept in [grid]; remove one")
     if not isinstance(spec, Mapping):
-        raise fail(f"{where} must be a table, {{ start = .., stop = .., num = .. }} or {{ values = [..] }}, got {_kind(spec)}")
+        raise fail(f"{where} must be a table, {{ start = .., stop = .., num = .. }} or {{ values = [..] }}, got {kind(spec)}")
     for key in spec:
         if key not in AXIS_KEYS:
             raise fail(f"{where}: unknown key '{key}'{_did_you_mean(key, AXIS_KEYS)} (allowed: {', '.join(AXIS_KEYS)})")
@@ -333,7 +283,7 @@ def _axis_spec(axis, spec, specs, params, model_name, fail) -> dict[str, Any]:
             raise fail(f"{where}: give either values or start/stop/num, not both")
         values = spec["values"]
         if not isinstance(values, list):
-            raise fail(f"{where}: values must be an array of numbers, got {_kind(values)}")
+            raise fail(f"{where}: values must be an array of numbers, got {kind(values)}")
         if not values:
             raise fail(f"{where}: values is empty")
         values = [check(v, f"value {i}") for i, v in enumerate(values)]
@@ -376,7 +326,7 @@ def _check_size(axis_specs, n_v, max_points, fail, settings: Mapping[str, Any]) 
         shape = " x ".join(str(k) for k in lengths)
         raise fail(
             f"[grid] has {n:,} points ({shape}), more than the limit of {max_points:,}; "
-            f"its results alone would take about {_human_bytes(n * result_bytes_per_point(n_v, settings))} "
+            f"its results alone would take about {human_bytes(n * result_bytes_per_point(n_v, settings))} "
             "(shrink the grid or raise the limit, --max-points)"
         )
 
@@ -385,35 +335,16 @@ def _analysis(table, names, fail) -> tuple[bool, str | None, str | None, dict[st
     for key in table:
         if key not in ANALYSIS_KEYS:
             raise fail(f"[analysis]: unknown key '{key}'{_did_you_mean(key, ANALYSIS_KEYS)} (allowed: {', '.join(ANALYSIS_KEYS)})")
-    stability = table.get("stability", True)
-    if not isinstance(stability, bool):
-        raise fail(f"[analysis]: stability must be true or false, got {stability!r}")
-
-    continuation = table.get("continuation", True)
+    gait = Gait.check({k: table[k] for k in Gait.keys() if k in table}, fail)
+    continuation = gait.continuation
     if continuation is True:
         continuation = names[0]
     elif continuation is False:
         continuation = None
-    elif not isinstance(continuation, str):
-        raise fail(f"[analysis]: continuation must be a grid axis name or false, got {continuation!r}")
     elif continuation not in names:
         raise fail(f"[analysis]: continuation = '{continuation}' is not a grid axis (axes: {', '.join(names)})")
-    seed_axis = _seed_axis(table.get("seed_axis", False), continuation, names, fail)
-
-    solver: dict[str, float | int] = {}
-    for key in SOLVER_KEYS:
-        if key not in table:
-            continue
-        value = table[key]
-        if key == "max_newton_iter":
-            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                raise fail(f"[analysis]: {key} must be a positive integer, got {value!r}")
-        else:
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0 < value < math.inf):
-                raise fail(f"[analysis]: {key} must be a positive number, got {value!r}")
-            value = float(value)
-        solver[key] = value
-    return stability, continuation, seed_axis, solver
+    seed_axis = _seed_axis(gait.seed_axis, continuation, names, fail)
+    return gait.stability, continuation, seed_axis, Solver.settings(table, fail)
 
 
 def _analyses(table, continuation, model, fail) -> dict[str, Any]:
@@ -440,7 +371,7 @@ def _seed_axis(value, continuation, names, fail) -> str | None:
     the continuation axis (there must be one)."""
     if value is False:
         return None
-    if not isinstance(value, str):
+    if value is True:  # the shape allows a boolean; only false means something
         raise fail(f"[analysis]: seed_axis must be a grid axis name or false, got {value!r}")
     if value not in names:
         raise fail(f"[analysis]: seed_axis = '{value}' is not a grid axis{_did_you_mean(value, names)} (axes: {', '.join(names)})")
@@ -461,24 +392,3 @@ def result_bytes_per_point(n_v: int, settings: Mapping[str, Any] | None = None) 
 
     act = analyses.active_settings({**(settings or {}), "gait": True})
     return outputs.bytes_per_point(analyses.outputs(act), analyses.sizes(act, n_v))
-
-
-def _unknown_param(key: str, specs: Mapping[str, ParamSpec], model: str) -> str:
-    return f"unknown parameter '{key}' for model '{model}'{_did_you_mean(key, specs)} (known: {', '.join(specs)})"
-
-
-def _kind(value) -> str:
-    names = {bool: "a boolean", int: "an integer", float: "a number", str: "a string", list: "an array"}
-    return names.get(type(value), "a table" if isinstance(value, Mapping) else type(value).__name__)
-
-
-def _human_bytes(n: float) -> str:
-    for unit in ("B", "KB", "MB", "GB"):
-        if n < 1000:
-            return f"{n:.3g} {unit}"
-        n /= 1000
-    return f"{n:.3g} TB"
-
-
-def _one_line(err: Exception) -> str:
-    return " ".join(str(err).split())

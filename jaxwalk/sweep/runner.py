@@ -217,7 +217,7 @@ def dry_run(config: SweepConfig, out_dir, *, chunk_size: int | None = None, over
         ConfigError: as ``run_sweep`` would, before computing.
     """
     from jaxwalk.sweep import timings
-    from jaxwalk.sweep.config import _human_bytes
+    from jaxwalk.configs import human_bytes
 
     config, model, target, options = _prepare(config, out_dir, max_points=DEFAULT_MAX_POINTS, overwrite=overwrite,
                                               chunk_size=chunk_size)
@@ -227,7 +227,7 @@ def dry_run(config: SweepConfig, out_dir, *, chunk_size: int | None = None, over
     lines = [
         f"{config.name}: {config.n_points:,} points ({shape}, {config.model} model) in {store.n_chunks:,} chunk"
         f"{'s' * (store.n_chunks != 1)} of {' x '.join(map(str, store.chunks))}",
-        f"store: {target}, up to {_human_bytes(store.estimated_bytes())} on disk",
+        f"store: {target}, up to {human_bytes(store.estimated_bytes())} on disk",
     ]
     if store.done:
         lines.append(f"continues an unfinished run: {len(store.done)} of {store.n_chunks} chunks done, {todo:,} points to go")

@@ -43,9 +43,10 @@ from typing import Iterator, Mapping
 import numpy as np
 
 from jaxwalk import analyses
+from jaxwalk.configs import human_bytes
 from jaxwalk.errors import ConfigError
 from jaxwalk.status import Status
-from jaxwalk.sweep.config import GridAxis, SweepConfig, _human_bytes
+from jaxwalk.sweep.config import GridAxis, SweepConfig
 from jaxwalk.walker import Walker
 
 PARTIAL_SUFFIX = ".partial"
@@ -214,9 +215,9 @@ class ChunkStore:
         free = shutil.disk_usage(existing).free
         if need > free:
             raise ConfigError(
-                f"the dataset needs up to {_human_bytes(need)} on disk ({remaining:,} chunk{'s' * (remaining != 1)} of "
+                f"the dataset needs up to {human_bytes(need)} on disk ({remaining:,} chunk{'s' * (remaining != 1)} of "
                 f"{' x '.join(map(str, self.chunks))} points, uncompressed) but '{os.path.abspath(existing)}' has "
-                f"{_human_bytes(free)} free (free some space, shrink the grid, or write elsewhere with --out)"
+                f"{human_bytes(free)} free (free some space, shrink the grid, or write elsewhere with --out)"
             )
 
     # ---------------------------------------------------------------- running

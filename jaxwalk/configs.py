@@ -1,0 +1,239 @@
+"""Config files: read them, and check each table against a declared shape.
+
+Every command's config is a TOML file of tables. Each table's shape (its keys,
+their types, ranges and defaults) is declared once, as a :class:`Table`: a
+frozen pydantic model that refuses unknown keys and converts nothing (a string
+is not a number, ``true`` is not ``1``). A violation becomes the project's
+one-line :class:`~jaxwalk.errors.ConfigError` naming the file, the table and
+the key, with a "did you mean" hint for a misspelt key (:meth:`Table.check`).
+
+What depends on the model (parameter names and bounds, section coordinates,
+capabilities) or on the analysis plug-ins (:mod:`jaxwalk.analyses`) is checked
+after the shape, against those registries, by the command's parser; the
+helpers every parser shares are here (:func:`check_name`, :func:`model_of`,
+:func:`check_params`).
+"""
+
+from __future__ import annotations
+
+import re
+import tomllib
+from pathlib import Path
+from typing import Any, Callable, ClassVar, Mapping
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic_core import PydanticUndefined
+
+from jaxwalk.analyses.base import did_you_mean
+from jaxwalk.errors import ConfigError
+
+#: ``fail(message)`` returns the :class:`ConfigError` to raise (the file's name in front).
+Fail = Callable[[str], ConfigError]
+
+_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*\Z")
+
+
+# ---------------------------------------------------------------- files
+
+
+def read_config_text(path: str | Path) -> str:
+    """The text of the config file at ``path`` (UTF-8). Raises :class:`ConfigError`."""
+    try:
+        raw = Path(path).read_bytes()
+    except FileNotFoundError:
+        raise ConfigError(f"config file '{path}' not found") from None
+    except IsADirectoryError:
+        raise ConfigError(f"config file '{path}' is a directory") from None
+    except OSError as err:
+        raise ConfigError(f"cannot read config file '{path}': {err.strerror or err}") from None
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError:
+        raise ConfigError(f"{path}: not a UTF-8 text file") from None
+
+
+def parse_toml(text: str, *, source: str = "<config>") -> dict[str, Any]:
+    """TOML text as a dict. Raises :class:`ConfigError` (one line, with the position)."""
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        # tomllib's message carries "(at line L, column C)".
+        raise ConfigError(f"{source}: invalid TOML: {one_line(err)}") from None
+
+
+def failing(source: str) -> Fail:
+    """``fail(message)``: the error a parser raises, ``source`` in front."""
+    return lambda message: ConfigError(f"{source}: {message}")
+
+
+# ---------------------------------------------------------------- declared shapes
+
+
+def field(default: Any = PydanticUndefined, what: str = "", *, message: str | None = None,
+          missing: str | None = None, **constraints) -> Any:
+    """A :class:`Table` key: its default (none: required), ``what`` it must be (its
+    documentation and the error's words), pydantic ``constraints`` (``ge``,
+    ``gt``, ``min_length``, ``allow_inf_nan``, ...) and, where a key's message
+    is not the table's, its own ``message`` (a :meth:`str.format` template, as
+    :attr:`Table.must`) and ``missing`` text."""
+    extra = {k: v for k, v in (("message", message), ("missing", missing)) if v is not None}
+    return Field(default, description=what, json_schema_extra=extra or None, **constraints)
+
+
+class Table(BaseModel):
+    """The declared shape of one config table; subclasses declare keys as fields.
+
+    Class attributes: ``where`` names the table in messages (``"[basin]"``);
+    ``must`` is the message of a value of the wrong type or range, a template
+    with ``{where}``, ``{key}``, ``{what}`` (the field's description),
+    ``{value!r}``, ``{kind}`` (:func:`kind` of the value) and any context
+    :meth:`check` is given.
+    """
+
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=True)
+
+    where: ClassVar[str] = ""
+    must: ClassVar[str] = "{where}: {key} must be {what}, got {value!r}"
+
+    @classmethod
+    def keys(cls) -> tuple[str, ...]:
+        """The table's keys, in declaration order (the "allowed" list of messages)."""
+        return tuple(cls.model_fields)
+
+    @classmethod
+    def unknown(cls, key: str, value: Any) -> str:
+        """The message for a key the table does not declare."""
+        allowed = cls.keys()
+        return f"{cls.where}: unknown key '{key}'{did_you_mean(key, allowed)} (allowed: {', '.join(allowed)})"
+
+    @classmethod
+    def check(cls, data: Mapping[str, Any], fail: Fail, **context: Any):
+        """``data`` validated as this table; ``fail(message)`` raised for its first fault
+        (an unknown key before a bad value, as a reader would fix them)."""
+        try:
+            return cls.model_validate(dict(data))
+        except ValidationError as err:
+            errors = sorted(err.errors(include_url=False), key=lambda e: e["type"] != "extra_forbidden")
+            raise fail(cls.message(errors[0], data, context)) from None
+
+    @classmethod
+    def message(cls, error: Mapping[str, Any], data: Mapping[str, Any], context: Mapping[str, Any]) -> str:
+        """One pydantic error as the project's one-line message."""
+        key = str(error["loc"][0]) if error["loc"] else ""
+        if error["type"] == "extra_forbidden":
+            return cls.unknown(key, data[key])
+        info = cls.model_fields[key]
+        extra = info.json_schema_extra or {}
+        words = dict(where=cls.where, key=key, what=info.description, **context)
+        if error["type"] == "missing":
+            return extra.get("missing", "{where}: missing '{key}'").format(**words)
+        value = data.get(key)
+        # The whole value, not the element pydantic stopped at: the reader sees what they wrote.
+        return extra.get("message", cls.must).format(value=value, kind=kind(value), **words)
+
+
+class TopLevel(Table):
+    """The top level of a config: ``name``, ``model``, ``[params]``; commands add their tables.
+
+    ``name`` and ``model`` are checked by :func:`check_name` and :func:`model_of`
+    (their messages show an example); tables must be tables.
+    """
+
+    where: ClassVar[str] = ""
+    must: ClassVar[str] = "'{key}' must be a table ([{key}]), got {kind}"
+    #: Whether an unknown table is called a "section" (else every unknown entry is a "key").
+    sections_named: ClassVar[bool] = False
+
+    name: Any = None
+    model: Any = None
+    params: dict[str, Any] = field({}, "the fixed parameters")
+
+    @classmethod
+    def unknown(cls, key: str, value: Any) -> str:
+        what = "section" if cls.sections_named and isinstance(value, Mapping) else "key"
+        allowed = cls.keys()
+        return f"unknown top-level {what} '{key}'{did_you_mean(key, allowed)} (allowed: {', '.join(allowed)})"
+
+
+class Solver(Table):
+    """The solver settings of ``[analysis]`` (sweeps, optimisation): each passed to
+    the analysis when set, its default otherwise."""
+
+    where: ClassVar[str] = "[analysis]"
+
+    rtol: float | None = field(None, "a positive number", gt=0, allow_inf_nan=False)
+    atol: float | None = field(None, "a positive number", gt=0, allow_inf_nan=False)
+    newton_tol: float | None = field(None, "a positive number", gt=0, allow_inf_nan=False)
+    max_newton_iter: int | None = field(None, "a positive integer", ge=1)
+
+    @classmethod
+    def settings(cls, table: Mapping[str, Any], fail: Fail) -> dict[str, float | int]:
+        """The settings of ``table`` that are given (its other keys are not looked at)."""
+        given = cls.check({k: table[k] for k in cls.keys() if k in table}, fail)
+        return given.model_dump(exclude_none=True)
+
+
+# ---------------------------------------------------------------- shared checks
+
+
+def check_name(data: Mapping[str, Any], fail: Fail) -> str:
+    """The config's ``name``: the outputs' file names start with it."""
+    name = data.get("name")
+    if name is None:
+        raise fail("missing 'name' (the dataset name, e.g. name = \"slope_scan\")")
+    if not isinstance(name, str) or not _NAME.match(name):
+        raise fail(f"'name' must be a string of letters, digits, '_', '.', '-' (a file name), got {name!r}")
+    return name
+
+
+def model_of(data: Mapping[str, Any], fail: Fail, example: str):
+    """``(name, model)`` named by a config's ``model`` key, from the registry."""
+    from jaxwalk.models import get_model
+
+    model_name = data.get("model")
+    if model_name is None:
+        raise fail(f"missing 'model' (e.g. model = \"{example}\")")
+    if not isinstance(model_name, str):
+        raise fail(f"'model' must be a string, got {kind(model_name)}")
+    try:
+        return model_name, get_model(model_name)
+    except KeyError as err:
+        raise fail(err.args[0]) from None
+
+
+def check_params(table: Mapping[str, Any], specs: Mapping, model_name: str, fail: Fail) -> dict[str, float]:
+    """``[params]`` as floats, each a parameter of the model within its bounds
+    (:class:`~jaxwalk.parameters.ParamSpec`)."""
+    out = {}
+    for key, value in table.items():
+        if key not in specs:
+            raise fail(f"[params]: {unknown_param(key, specs, model_name)}")
+        try:
+            specs[key].check(value)
+        except ValueError as err:
+            raise fail(f"[params]: {err}") from None
+        out[key] = float(value)
+    return out
+
+
+def unknown_param(key: str, specs: Mapping, model: str) -> str:
+    return f"unknown parameter '{key}' for model '{model}'{did_you_mean(key, specs)} (known: {', '.join(specs)})"
+
+
+def kind(value: Any) -> str:
+    """What a TOML value is, in words (``"an integer"``, ``"a table"``)."""
+    names = {bool: "a boolean", int: "an integer", float: "a number", str: "a string", list: "an array"}
+    return names.get(type(value), "a table" if isinstance(value, Mapping) else type(value).__name__)
+
+
+def human_bytes(n: float) -> str:
+    """``n`` bytes to three significant digits in B, KB, MB, GB or TB (powers of 1000)."""
+    for unit in ("B", "KB", "MB", "GB"):
+        if n < 1000:
+            return f"{n:.3g} {unit}"
+        n /= 1000
+    return f"{n:.3g} TB"
+
+
+def one_line(err: Exception) -> str:
+    return " ".join(str(err).split())
