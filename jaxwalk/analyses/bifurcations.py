@@ -33,7 +33,7 @@ def table(config, model, store: Path, options, params):
     ``params``: every parameter over the grid (:func:`jaxwalk.grid.parameter_grid`)."""
     import xarray as xr
 
-    from jaxwalk.bifurcation import KIND_MEANINGS, Kind, locate
+    from jaxwalk.bifurcation import locate
 
     ds = xr.open_zarr(store, consolidated=False)
     axis = config.continuation
@@ -46,7 +46,19 @@ def table(config, model, store: Path, options, params):
     eig = move(ds["eigenvalues_real"].values + 1j * ds["eigenvalues_imag"].values).reshape(v.shape)
     lines = {name: move(values).reshape(-1, n) for name, values in params.items()}
     found = locate(model, lines, axis, status, np.nan_to_num(v), np.nan_to_num(eig), solver=options.solver, newton=options.newton)
-    where = np.unravel_index(found.line, tuple(config.shape[config.dims.index(d)] for d in others)) if others else ()
+    return table_dataset(found, ds, axis, others, tuple(config.shape[config.dims.index(d)] for d in others))
+
+
+def table_dataset(found, ds, axis: str, others: list[str], line_shape: tuple[int, ...]):
+    """The table as an ``xarray.Dataset`` along ``bifurcation``, from ``found``
+    (:class:`jaxwalk.bifurcation.Bifurcations`: one entry per point) and the sweep
+    dataset ``ds`` (its axes' values and units); ``others``: the grid axes
+    across the lines, of shape ``line_shape`` (C order of ``found.line``)."""
+    import xarray as xr
+
+    from jaxwalk.bifurcation import KIND_MEANINGS, Kind
+
+    where = np.unravel_index(found.line, line_shape) if others else ()
     dim = "bifurcation"
     kinds = list(Kind)
     data = {

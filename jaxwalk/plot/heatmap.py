@@ -7,7 +7,10 @@ Each panel draws, bottom to top:
   per status (:mod:`jaxwalk.plot.statuses`), named in the legend with its count;
 * unstable gaits (status 0, ``lambda_max >= 1``) hatched, so a value map of
   speed or h_max still shows which gaits would not persist;
-* the ``lambda_max = 1`` contour, where ``lambda_max`` crosses 1.
+* the ``lambda_max = 1`` contour, where ``lambda_max`` crosses 1;
+* with a bifurcation table (``[analysis] bifurcations``), the folds, flips and
+  lost-gait edges located on the continuation lines, joined into curves
+  (:mod:`jaxwalk.plot.loci`).
 
 Cells are centred on the grid values (``shading="nearest"``), so a cell's
 colour is exactly the value computed there; nothing is interpolated.
@@ -20,6 +23,7 @@ import math
 import numpy as np
 import xarray as xr
 
+from jaxwalk.plot import loci
 from jaxwalk.plot.labels import STABILITY_LIMIT, UNSTABLE, axis_label, figure_title, value_text, variable_label
 from jaxwalk.plot.layout import Layout, panel_views
 from jaxwalk.plot.statuses import failure_codes, legend_label, status_color, status_names
@@ -75,12 +79,16 @@ def heatmap_figure(ds: xr.Dataset, name: str, layout: Layout):
         bar_label += "\n(linear below 1 and above 1, 1 at mid-scale)"
 
     counts: dict[int, int] = {}
-    drew_contour = drew_unstable = False
+    drew_contour = drew_unstable = drew_unlocated = False
+    kinds: set[str] = set()
     mesh = None
     for ax, (index, view) in zip(axes, views):
         mesh, c, u = _panel(ax, view, name, layout, norm, counts)
         drew_contour |= c
         drew_unstable |= u
+        k, unlocated = loci.draw(ax, ds, view, layout.x, layout.y)
+        kinds |= k
+        drew_unlocated |= unlocated
         if index is not None:
             ax.set_title(value_text(ds, layout.panels, index), fontsize="medium")
     for i, ax in enumerate(axes[: len(views)]):
@@ -93,7 +101,7 @@ def heatmap_figure(ds: xr.Dataset, name: str, layout: Layout):
         if isinstance(norm, TwoSlopeNorm):
             bar.set_ticks(sorted({round(float(t), 3) for t in np.linspace(norm.vmin, 1.0, 4)} | {round(float(t), 3) for t in np.linspace(1.0, norm.vmax, 4)}))
     fig.suptitle(figure_title(ds, name, layout.fixed), fontsize="medium")
-    handles = _legend_handles(ds, counts, drew_contour, drew_unstable)
+    handles = _legend_handles(ds, counts, drew_contour, drew_unstable) + loci.legend_handles(kinds, drew_unlocated)
     if not finite.size:
         handles.insert(0, _patch("white", "no gait found anywhere on this view", edge="none"))
     if handles:
