@@ -192,6 +192,7 @@ def locate(
     options: BifurcationOptions = BifurcationOptions(),
     solver: SolverOptions = SolverOptions(),
     newton: NewtonOptions = NewtonOptions(),
+    progress=None,
 ) -> Bifurcations:
     """Every bifurcation between neighbouring points of ``n_lines`` lines of ``n`` points.
 
@@ -202,6 +203,11 @@ def locate(
         v: ``(n_lines, n, n_v)`` a point of each cycle (the period-1 fixed point for ``period = 1``).
         multipliers: ``(n_lines, n, n_v)`` complex eigenvalues of the k-step map's Jacobian there.
         period: k, the map's number of steps.
+        progress: ``None``, or a progress bar with tqdm's ``total``, ``update(n)``
+            and ``refresh()``: its total is set to the rounds of batched solves
+            planned (the edges' bisections exactly, the sign changes' regula
+            falsi at most ``options.max_iter``, lowered when they end sooner)
+            and advanced by one per round.
 
     Returns:
         :class:`Bifurcations`, rows ordered by line then parameter.
@@ -219,8 +225,9 @@ def locate(
                     sign_rows.append((kind, column, line, i))
         elif ok_a != ok_b:
             edge_rows.append((line, i, i + 1) if ok_a else (line, i + 1, i))  # (line, found, lost)
-    rows = _shrink_signs(model, lines, axis, v, tests, sign_rows, period, options, solver, newton)
-    rows += _shrink_edges(model, lines, axis, status, v, edge_rows, period, options, solver, newton)
+    rounds = _Rounds(progress, sign_rows, edge_rows, np.asarray(lines[axis], np.float64), options)
+    rows = _shrink_signs(model, lines, axis, v, tests, sign_rows, period, options, solver, newton, rounds)
+    rows += _shrink_edges(model, lines, axis, status, v, edge_rows, period, options, solver, newton, rounds)
     rows.sort(key=lambda r: (r["line"], r["parameter"]))
     n_v = v.shape[-1]
     col = lambda key, dtype: np.array([r[key] for r in rows], dtype)
@@ -233,6 +240,35 @@ def locate(
     )
 
 
+class _Rounds:
+    """Counts :func:`locate`'s rounds of batched solves on a progress bar (or nowhere)."""
+
+    def __init__(self, bar, sign_rows, edge_rows, x: np.ndarray, options: BifurcationOptions):
+        self.bar = bar
+        self.sign_left = (options.max_iter + 1) if sign_rows else 0  # the last +1: the midpoints' solve
+        if edge_rows:
+            width = max(abs(x[r[0], r[2]] - x[r[0], r[1]]) for r in edge_rows)
+            edge = int(np.ceil(np.log2(max(width / (2 * options.tol), 1.0)))) + 1
+        else:
+            edge = 0
+        if bar is not None:
+            bar.total = self.sign_left + edge
+            bar.refresh()
+
+    def advance(self, signs: bool = False) -> None:
+        if signs:
+            self.sign_left -= 1
+        if self.bar is not None:
+            self.bar.update(1)
+
+    def signs_done(self) -> None:
+        """The regula falsi ended before ``max_iter``: its unused rounds leave the total."""
+        if self.bar is not None and self.sign_left > 1:
+            self.bar.total -= self.sign_left - 1
+            self.bar.refresh()
+        self.sign_left = min(self.sign_left, 1)
+
+
 def _params_at(lines, axis, line_index: np.ndarray, x: np.ndarray, i: np.ndarray) -> dict[str, np.ndarray]:
     """Parameters of the lines at continuation values ``x`` (other parameters of point ``i``)."""
     out = {k: np.asarray(val)[line_index, i] for k, val in lines.items()}
@@ -241,7 +277,7 @@ def _params_at(lines, axis, line_index: np.ndarray, x: np.ndarray, i: np.ndarray
     return out
 
 
-def _shrink_signs(model, lines, axis, v, tests, rows, period, options, solver, newton) -> list[dict]:
+def _shrink_signs(model, lines, axis, v, tests, rows, period, options, solver, newton, rounds: _Rounds) -> list[dict]:
     """Illinois regula falsi on each sign-change bracket, all brackets batched."""
     if not rows:
         return []
@@ -258,6 +294,7 @@ def _shrink_signs(model, lines, axis, v, tests, rows, period, options, solver, n
         state[(state == Status.IN_PROGRESS) & ~active] = Status.OK
         if not active.any():
             break
+        rounds.advance(signs=True)
         secant = hi - f_hi * (hi - lo) / (f_hi - f_lo)
         # Every fourth trial a bisection, and never within 1% of an end: the bracket must shrink from both sides.
         width = hi - lo
@@ -281,6 +318,8 @@ def _shrink_signs(model, lines, axis, v, tests, rows, period, options, solver, n
                 f_lo[g] *= 0.5 if side[g] == -1 else 1.0
                 side[g] = -1
     state[state == Status.IN_PROGRESS] = Status.NO_CONVERGENCE
+    rounds.signs_done()
+    rounds.advance(signs=True)
     mid = 0.5 * (lo + hi)
     st, v_m, mu_m = _evaluate(model, period, solver, newton, _params_at(lines, axis, line, mid, i), 0.5 * (v_lo + v_hi))
     out = []
@@ -293,7 +332,7 @@ def _shrink_signs(model, lines, axis, v, tests, rows, period, options, solver, n
     return out
 
 
-def _shrink_edges(model, lines, axis, status, v, rows, period, options, solver, newton) -> list[dict]:
+def _shrink_edges(model, lines, axis, status, v, rows, period, options, solver, newton, rounds: _Rounds) -> list[dict]:
     """Bisection on "the cycle is found, from the found side" at each edge of a line's gaits."""
     if not rows:
         return []
@@ -307,6 +346,7 @@ def _shrink_edges(model, lines, axis, status, v, rows, period, options, solver, 
     mu_good = np.full(v_good.shape, np.nan, np.complex128)
     while (np.abs(bad - good) > 2 * options.tol).any():
         mid = 0.5 * (good + bad)
+        rounds.advance()
         st, v_m, mu = _evaluate(model, period, solver, newton, _params_at(lines, axis, line, mid, ok_i), v_good)
         found = st == Status.OK
         good = np.where(found, mid, good)
@@ -314,6 +354,7 @@ def _shrink_edges(model, lines, axis, status, v, rows, period, options, solver, 
         mu_good = np.where(found[:, None], mu, mu_good)
         beyond = np.where(found, beyond, st).astype(np.int8)
         bad = np.where(found, bad, mid)
+    rounds.advance()
     st, v_g, mu_g = _evaluate(model, period, solver, newton, _params_at(lines, axis, line, good, ok_i), v_good)
     out = []
     for r in range(len(rows)):

@@ -91,3 +91,32 @@ def test_compass_gait_period_doubling():
     found = locate(model, lines, "gamma", status, v, mu)
     assert found.kind.tolist() == [Kind.FLIP] and found.status.tolist() == [Status.OK]
     assert abs(np.degrees(found.parameter[0]) - 4.39) <= 0.005
+
+
+class _Bar:
+    """Records what :func:`locate` tells a progress bar (tqdm's interface)."""
+
+    def __init__(self):
+        self.total, self.n, self.totals = 0, 0, []
+
+    def update(self, k):
+        self.n += k
+
+    def refresh(self):
+        self.totals.append(self.total)
+
+
+def test_progress_counts_every_round_of_solves(period_one):
+    """The bar's total is the rounds planned (edges exactly, sign changes at most
+    max_iter, lowered when they end) and it ends full: a time-left estimate that
+    holds. The edge is made by marking the line's last points failed."""
+    lines, status, v, mu = period_one
+    bar = _Bar()
+    locate(SIMPLEST, lines, "gamma", status, v, mu, progress=bar)
+    assert bar.totals[0] > bar.total == bar.n > 2  # planned at most max_iter, ended sooner
+    failed = status.copy()
+    failed[0, -2:] = Status.FELL
+    bar = _Bar()
+    found = locate(SIMPLEST, lines, "gamma", failed, v, mu, progress=bar)
+    assert Kind.GRAZING in found.kind.tolist()
+    assert bar.total == bar.n

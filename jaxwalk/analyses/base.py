@@ -190,9 +190,10 @@ class Analysis:
         :mod:`jaxwalk.optimize`."""
         raise NotImplementedError(f"{self.name} declares no gradient of {quantity}")
 
-    def finish(self, config, model, store, options, params: Mapping[str, np.ndarray]) -> None:
+    def finish(self, config, model, store, options, params: Mapping[str, np.ndarray], progress: bool = True) -> None:
         """After every block is written: an analysis of the whole grid adds its
-        results to ``store`` (a zarr group path); ``params`` as :func:`jaxwalk.grid.parameter_grid`."""
+        results to ``store`` (a zarr group path); ``params`` as :func:`jaxwalk.grid.parameter_grid`;
+        ``progress``: show a progress bar with the time left (stderr) for work that takes long."""
 
     def __repr__(self) -> str:
         return f"<analysis {self.name}>"

@@ -28,9 +28,10 @@ from jaxwalk.analyses.base import Analysis
 from jaxwalk.status import flag_attributes
 
 
-def table(config, model, store: Path, options, params):
+def table(config, model, store: Path, options, params, progress=None):
     """The bifurcation table of the grid written in ``store`` (a zarr group);
-    ``params``: every parameter over the grid (:func:`jaxwalk.grid.parameter_grid`)."""
+    ``params``: every parameter over the grid (:func:`jaxwalk.grid.parameter_grid`);
+    ``progress``: a tqdm bar (or ``None``), see :func:`jaxwalk.bifurcation.locate`."""
     import xarray as xr
 
     from jaxwalk.bifurcation import locate
@@ -45,7 +46,8 @@ def table(config, model, store: Path, options, params):
     v = move(ds["fixed_point"].values).reshape(-1, n, len(model.section_names))
     eig = move(ds["eigenvalues_real"].values + 1j * ds["eigenvalues_imag"].values).reshape(v.shape)
     lines = {name: move(values).reshape(-1, n) for name, values in params.items()}
-    found = locate(model, lines, axis, status, np.nan_to_num(v), np.nan_to_num(eig), solver=options.solver, newton=options.newton)
+    found = locate(model, lines, axis, status, np.nan_to_num(v), np.nan_to_num(eig), solver=options.solver, newton=options.newton,
+                   progress=progress)
     return table_dataset(found, ds, axis, others, tuple(config.shape[config.dims.index(d)] for d in others))
 
 
@@ -85,11 +87,16 @@ def table_dataset(found, ds, axis: str, others: list[str], line_shape: tuple[int
     return xr.Dataset(data)
 
 
-def write_table(config, model, store: Path, options, params) -> None:
-    """Compute the table and add it to the store (replacing one written before)."""
-    import zarr
+def write_table(config, model, store: Path, options, params, progress: bool = True) -> None:
+    """Compute the table and add it to the store (replacing one written before),
+    with a progress bar of the location's rounds of solves (stderr) unless ``progress`` is false."""
+    import sys
 
-    found = table(config, model, store, options, params)
+    import zarr
+    from tqdm.auto import tqdm
+
+    with tqdm(total=0, unit="round", desc="locating bifurcations", disable=not progress, file=sys.stderr) as bar:
+        found = table(config, model, store, options, params, bar)
     # xarray's append sets the group's attributes to the appended dataset's:
     # keep the sweep's global attributes (its config, units, history, ...).
     attrs = dict(zarr.open_group(store, mode="r", zarr_format=3).attrs)
@@ -117,8 +124,8 @@ class Bifurcations(Analysis):
     def grid_options(self, resolved):
         return None  # nothing per block: the table is made from the whole lines written
 
-    def finish(self, config, model, store, options, params) -> None:
-        write_table(config, model, store, options, params)
+    def finish(self, config, model, store, options, params, progress: bool = True) -> None:
+        write_table(config, model, store, options, params, progress)
 
 
 ANALYSIS = Bifurcations()

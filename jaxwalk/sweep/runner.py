@@ -122,7 +122,7 @@ def run_sweep(
         seeds = seed_lines(model, config.fixed, config.grid, config.continuation, config.seed_axis, options)
     starts = None if seeds is None else seeds.starts
     _compute_blocks(config, analyse, options, store, starts, progress=progress, dask=dask, command=command)
-    _finish(config, model, store, options, seeds)
+    _finish(config, model, store, options, seeds, progress)
     if plot:
         try:
             from jaxwalk.plot import plot_dataset
@@ -153,7 +153,7 @@ def _plan_store(config, model, target, options, *, command: str = "", overwrite:
                            command=command, overwrite=overwrite)
 
 
-def _finish(config, model, store, options, seeds) -> None:
+def _finish(config, model, store, options, seeds, progress: bool = True) -> None:
     """After every block: the seed lines' attributes, the analyses of the whole grid
     (:attr:`~jaxwalk.analyses.base.Analysis.whole_grid`), then the store renamed into place."""
     if seeds is not None:
@@ -166,7 +166,7 @@ def _finish(config, model, store, options, seeds) -> None:
 
         params = parameter_grid(model, config.fixed, config.grid)
         for analysis, _ in whole:
-            analysis.finish(config, model, store.store, options, params)
+            analysis.finish(config, model, store.store, options, params, progress=progress)
     store.finish()
 
 
