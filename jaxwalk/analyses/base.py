@@ -16,19 +16,13 @@ without JAX) and never import :mod:`jaxwalk.grid` or :mod:`jaxwalk.sweep`
 from __future__ import annotations
 
 import dataclasses
-import difflib
 from typing import Any, Callable, Mapping
 
 import numpy as np
 
 from jaxwalk import outputs as schema
+from jaxwalk.configs import did_you_mean as did_you_mean  # where plug-ins found it
 from jaxwalk.outputs import Output
-
-
-def did_you_mean(key: str, choices) -> str:
-    """``" (did you mean 'step'?)"`` for the closest of ``choices``, or ``""``."""
-    close = difflib.get_close_matches(str(key), list(choices), n=1)
-    return f" (did you mean '{close[0]}'?)" if close else ""
 
 
 def switch_table(table: Mapping[str, Any], key: str, allowed, fail, example: str) -> Mapping[str, Any] | None:

@@ -39,8 +39,8 @@ import numpy as np
 
 from jaxwalk.optimize.engine import OPTIMIZERS, OWNERS, QUANTITIES, Problem
 from jaxwalk.analyses import did_you_mean as _did_you_mean
-from jaxwalk.configs import Solver, TopLevel, check_name, check_params, failing, field, kind, model_of, parse_toml, read_config_text
-from jaxwalk.sweep.config import GridAxis, _axis, _axis_spec
+from jaxwalk.configs import Solver, TopLevel, check_axis, check_name, check_params, failing, field, kind, model_of, parse_toml, read_config_text
+from jaxwalk.sweep.config import GridAxis, grid_axis
 from jaxwalk.walker import check_supported
 
 
@@ -277,8 +277,8 @@ def _heatmap(table, specs, model_name, fail):
     axes_raw = {k: v for k, v in table.items() if k != "continuation"}
     if len(axes_raw) > 2:
         raise fail(f"[heatmap]: at most two axes (a map over two parameters), got {len(axes_raw)}: {', '.join(axes_raw)}")
-    specs_out = {a: _axis_spec(a, s, specs, {}, model_name, lambda m: fail(m.replace("[grid]", "[heatmap]"))) for a, s in axes_raw.items()}
-    axes = tuple(_axis(a, s) for a, s in specs_out.items())
+    specs_out = {a: check_axis("[heatmap]", a, s, specs, {}, model_name, fail) for a, s in axes_raw.items()}
+    axes = tuple(grid_axis(a, s) for a, s in specs_out.items())
     if math.prod(len(a.values) for a in axes) > MAX_HEATMAP_POINTS:
         raise fail(f"[heatmap]: more than {MAX_HEATMAP_POINTS:,} points")
     continuation = table.get("continuation", bool(axes))
