@@ -22,7 +22,7 @@ import tomllib
 from pathlib import Path
 from typing import Any, Callable, ClassVar, Mapping
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError
 from pydantic_core import PydanticUndefined
 
 from jaxwalk.errors import ConfigError
@@ -88,6 +88,17 @@ def field(default: Any = PydanticUndefined, what: str = "", *, message: str | No
     return Field(default, description=what, json_schema_extra=extra or None, **constraints)
 
 
+def _distinct(values: list) -> list:
+    if len(set(map(str, values))) != len(values):
+        raise ValueError("entries repeat")
+    return values
+
+
+#: Annotate a list key with it (``Annotated[list[str], Distinct]``): a repeated entry is
+#: refused with the key's message, as a value of the wrong type is.
+Distinct = AfterValidator(_distinct)
+
+
 class Table(BaseModel):
     """The declared shape of one config table; subclasses declare keys as fields.
 
@@ -125,6 +136,12 @@ class Table(BaseModel):
         except ValidationError as err:
             errors = sorted(err.errors(include_url=False), key=lambda e: e["type"] != "extra_forbidden")
             raise fail(cls.message(errors[0], data, dict(context, where=where or cls.where))) from None
+
+    @classmethod
+    def pick(cls, table: Mapping[str, Any], fail: Fail, **context: Any):
+        """This table's keys of a larger ``table`` (``[analysis]``, shared by several
+        declared shapes) validated; its other keys are not looked at."""
+        return cls.check({k: table[k] for k in cls.keys() if k in table}, fail, **context)
 
     @classmethod
     def message(cls, error: Mapping[str, Any], data: Mapping[str, Any], context: Mapping[str, Any]) -> str:
@@ -181,8 +198,7 @@ class Solver(Table):
     @classmethod
     def settings(cls, table: Mapping[str, Any], fail: Fail) -> dict[str, float | int]:
         """The settings of ``table`` that are given (its other keys are not looked at)."""
-        given = cls.check({k: table[k] for k in cls.keys() if k in table}, fail)
-        return given.model_dump(exclude_none=True)
+        return cls.pick(table, fail).model_dump(exclude_none=True)
 
 
 class Axis(Table):

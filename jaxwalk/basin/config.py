@@ -22,7 +22,7 @@ from typing import Annotated, Any, ClassVar, Mapping
 
 from pydantic import Field
 
-from jaxwalk.analyses.basin import DEFAULTS, check_section
+from jaxwalk.analyses.basin import DEFAULTS, check_section  # [analysis] basin's defaults: the measure's
 from jaxwalk.configs import Table, TopLevel, check_name, check_params, failing, field, model_of, parse_toml, read_config_text
 
 #: Largest image: starts are walked at once (one array of them).

@@ -284,7 +284,7 @@ def _analysis(table, names, fail) -> tuple[bool, str | None, str | None, dict[st
     for key in table:
         if key not in ANALYSIS_KEYS:
             raise fail(f"[analysis]: unknown key '{key}'{_did_you_mean(key, ANALYSIS_KEYS)} (allowed: {', '.join(ANALYSIS_KEYS)})")
-    gait = Gait.check({k: table[k] for k in Gait.keys() if k in table}, fail)
+    gait = Gait.pick(table, fail)
     continuation = gait.continuation
     if continuation is True:
         continuation = names[0]
