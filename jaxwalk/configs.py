@@ -104,7 +104,8 @@ class Table(BaseModel):
 
     Class attributes: ``where`` names the table in messages (``"[basin]"``);
     ``must`` is the message of a value of the wrong type or range, a template
-    with ``{where}``, ``{key}``, ``{what}`` (the field's description),
+    with ``{where}``, ``{key}``, ``{name}`` (``"{where} {key}"`` unless the
+    context names it otherwise: a command-line option), ``{what}`` (the field's description),
     ``{value!r}``, ``{kind}`` (:func:`kind` of the value) and any context
     :meth:`check` is given.
     """
@@ -153,6 +154,7 @@ class Table(BaseModel):
         extra = info.json_schema_extra or {}
         words = dict(context, key=key, what=info.description)
         words.setdefault("where", cls.where)
+        words.setdefault("name", f"{words['where']} {key}")  # the key as a reader names it
         if error["type"] == "missing":
             return extra.get("missing", "{where}: missing '{key}'").format(**words)
         value = data.get(key)
