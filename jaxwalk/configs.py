@@ -16,15 +16,15 @@ helpers every parser shares are here (:func:`check_name`, :func:`model_of`,
 
 from __future__ import annotations
 
+import difflib
 import re
 import tomllib
 from pathlib import Path
 from typing import Any, Callable, ClassVar, Mapping
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError
 from pydantic_core import PydanticUndefined
 
-from jaxwalk.analyses.base import did_you_mean
 from jaxwalk.errors import ConfigError
 
 #: ``fail(message)`` returns the :class:`ConfigError` to raise (the file's name in front).
@@ -34,6 +34,12 @@ _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*\Z")
 
 
 # ---------------------------------------------------------------- files
+
+
+def did_you_mean(key: str, choices) -> str:
+    """``" (did you mean 'step'?)"`` for the closest of ``choices``, or ``""``."""
+    close = difflib.get_close_matches(str(key), list(choices), n=1)
+    return f" (did you mean '{close[0]}'?)" if close else ""
 
 
 def read_config_text(path: str | Path) -> str:
@@ -70,14 +76,27 @@ def failing(source: str) -> Fail:
 
 
 def field(default: Any = PydanticUndefined, what: str = "", *, message: str | None = None,
-          missing: str | None = None, **constraints) -> Any:
+          missing: str | None = None, messages: Mapping[str, str] | None = None, **constraints) -> Any:
     """A :class:`Table` key: its default (none: required), ``what`` it must be (its
     documentation and the error's words), pydantic ``constraints`` (``ge``,
     ``gt``, ``min_length``, ``allow_inf_nan``, ...) and, where a key's message
     is not the table's, its own ``message`` (a :meth:`str.format` template, as
-    :attr:`Table.must`) and ``missing`` text."""
-    extra = {k: v for k, v in (("message", message), ("missing", missing)) if v is not None}
+    :attr:`Table.must`), ``missing`` text and ``messages`` by pydantic error
+    type (``{"greater_than_equal": ...}``: a range and a type fault told apart)."""
+    pairs = (("message", message), ("missing", missing), ("messages", dict(messages) if messages else None))
+    extra = {k: v for k, v in pairs if v is not None}
     return Field(default, description=what, json_schema_extra=extra or None, **constraints)
+
+
+def _distinct(values: list) -> list:
+    if len(set(map(str, values))) != len(values):
+        raise ValueError("entries repeat")
+    return values
+
+
+#: Annotate a list key with it (``Annotated[list[str], Distinct]``): a repeated entry is
+#: refused with the key's message, as a value of the wrong type is.
+Distinct = AfterValidator(_distinct)
 
 
 class Table(BaseModel):
@@ -85,7 +104,8 @@ class Table(BaseModel):
 
     Class attributes: ``where`` names the table in messages (``"[basin]"``);
     ``must`` is the message of a value of the wrong type or range, a template
-    with ``{where}``, ``{key}``, ``{what}`` (the field's description),
+    with ``{where}``, ``{key}``, ``{name}`` (``"{where} {key}"`` unless the
+    context names it otherwise: a command-line option), ``{what}`` (the field's description),
     ``{value!r}``, ``{kind}`` (:func:`kind` of the value) and any context
     :meth:`check` is given.
     """
@@ -101,35 +121,46 @@ class Table(BaseModel):
         return tuple(cls.model_fields)
 
     @classmethod
-    def unknown(cls, key: str, value: Any) -> str:
+    def unknown(cls, key: str, value: Any, where: str | None = None) -> str:
         """The message for a key the table does not declare."""
         allowed = cls.keys()
-        return f"{cls.where}: unknown key '{key}'{did_you_mean(key, allowed)} (allowed: {', '.join(allowed)})"
+        return f"{where or cls.where}: unknown key '{key}'{did_you_mean(key, allowed)} (allowed: {', '.join(allowed)})"
 
     @classmethod
-    def check(cls, data: Mapping[str, Any], fail: Fail, **context: Any):
+    def check(cls, data: Mapping[str, Any], fail: Fail, *, where: str | None = None, **context: Any):
         """``data`` validated as this table; ``fail(message)`` raised for its first fault
-        (an unknown key before a bad value, as a reader would fix them)."""
+        (an unknown key before a bad value, as a reader would fix them). ``where``
+        names the table in messages when it is not :attr:`where` (one declared
+        shape read in several places: each grid axis, each switchable analysis)."""
         try:
             return cls.model_validate(dict(data))
         except ValidationError as err:
             errors = sorted(err.errors(include_url=False), key=lambda e: e["type"] != "extra_forbidden")
-            raise fail(cls.message(errors[0], data, context)) from None
+            raise fail(cls.message(errors[0], data, dict(context, where=where or cls.where))) from None
+
+    @classmethod
+    def pick(cls, table: Mapping[str, Any], fail: Fail, **context: Any):
+        """This table's keys of a larger ``table`` (``[analysis]``, shared by several
+        declared shapes) validated; its other keys are not looked at."""
+        return cls.check({k: table[k] for k in cls.keys() if k in table}, fail, **context)
 
     @classmethod
     def message(cls, error: Mapping[str, Any], data: Mapping[str, Any], context: Mapping[str, Any]) -> str:
-        """One pydantic error as the project's one-line message."""
+        """One pydantic error as the project's one-line message (``context["where"]``: the table's name)."""
         key = str(error["loc"][0]) if error["loc"] else ""
         if error["type"] == "extra_forbidden":
-            return cls.unknown(key, data[key])
+            return cls.unknown(key, data[key], context.get("where"))
         info = cls.model_fields[key]
         extra = info.json_schema_extra or {}
-        words = dict(where=cls.where, key=key, what=info.description, **context)
+        words = dict(context, key=key, what=info.description)
+        words.setdefault("where", cls.where)
+        words.setdefault("name", f"{words['where']} {key}")  # the key as a reader names it
         if error["type"] == "missing":
             return extra.get("missing", "{where}: missing '{key}'").format(**words)
         value = data.get(key)
+        template = extra.get("messages", {}).get(error["type"]) or extra.get("message", cls.must)
         # The whole value, not the element pydantic stopped at: the reader sees what they wrote.
-        return extra.get("message", cls.must).format(value=value, kind=kind(value), **words)
+        return template.format(value=value, kind=kind(value), **words)
 
 
 class TopLevel(Table):
@@ -149,7 +180,7 @@ class TopLevel(Table):
     params: dict[str, Any] = field({}, "the fixed parameters")
 
     @classmethod
-    def unknown(cls, key: str, value: Any) -> str:
+    def unknown(cls, key: str, value: Any, where: str | None = None) -> str:
         what = "section" if cls.sections_named and isinstance(value, Mapping) else "key"
         allowed = cls.keys()
         return f"unknown top-level {what} '{key}'{did_you_mean(key, allowed)} (allowed: {', '.join(allowed)})"
@@ -169,8 +200,73 @@ class Solver(Table):
     @classmethod
     def settings(cls, table: Mapping[str, Any], fail: Fail) -> dict[str, float | int]:
         """The settings of ``table`` that are given (its other keys are not looked at)."""
-        given = cls.check({k: table[k] for k in cls.keys() if k in table}, fail)
-        return given.model_dump(exclude_none=True)
+        return cls.pick(table, fail).model_dump(exclude_none=True)
+
+
+class Axis(Table):
+    """One axis of a grid (``[grid]`` of a sweep, ``[heatmap]`` of an optimisation):
+    ``num`` values evenly spaced from ``start`` to ``stop``, both included, or the
+    ``values`` listed, in the swept parameter's own units.
+
+    The numbers are checked against the parameter's bounds after the shape
+    (:meth:`resolve`): the bounds are the model's.
+    """
+
+    where: ClassVar[str] = "[grid] axis"
+    must: ClassVar[str] = "{where}: {key} must be {what}, got {value!r}"
+
+    start: Any = field(None, "the first value (the parameter's units)")
+    stop: Any = field(None, "the last value (the parameter's units)")
+    num: int | None = field(None, "an integer", ge=1, messages={
+        "greater_than_equal": "{where}: num must be at least 1, got {value!r}"})
+    values: list[Any] | None = field(None, "an array of numbers", min_length=1, message=(
+        "{where}: values must be an array of numbers, got {kind}"), messages={"too_short": "{where}: values is empty"})
+
+    def resolve(self, spec, where: str, fail: Fail) -> dict[str, Any]:
+        """The axis as written, numbers as floats (``{"start", "stop", "num"}`` or
+        ``{"values"}``), each value within ``spec``'s bounds (a :class:`~jaxwalk.parameters.ParamSpec`)."""
+
+        def check(value, what):
+            try:
+                spec.check(value)
+            except ValueError as err:
+                raise fail(f"{where}: {what}: {err}") from None
+            return float(value)
+
+        if self.values is not None:
+            if self.model_fields_set != {"values"}:
+                raise fail(f"{where}: give either values or start/stop/num, not both")
+            values = [check(v, f"value {i}") for i, v in enumerate(self.values)]
+            if len(set(values)) != len(values):
+                dup = next(v for v in values if values.count(v) > 1)
+                raise fail(f"{where}: value {dup} appears more than once")
+            return {"values": values}
+        missing = [k for k in ("start", "stop", "num") if k not in self.model_fields_set]
+        if missing:
+            raise fail(f"{where}: needs start, stop and num, or values (missing: {', '.join(missing)})")
+        # Bounds are intervals and linspace's endpoints are exactly start and stop,
+        # so checking the two endpoints checks every value of the axis.
+        start, stop, num = check(self.start, "start"), check(self.stop, "stop"), self.num
+        if num > 1 and start == stop:
+            raise fail(f"{where}: start equals stop with num = {num} (every value the same)")
+        if num == 1 and start != stop:
+            raise fail(f"{where}: num = 1 with start != stop; for one value write values = [{start}]")
+        return {"start": start, "stop": stop, "num": num}
+
+
+def check_axis(section: str, axis: str, value: Any, specs: Mapping, params: Mapping, model_name: str,
+               fail: Fail) -> dict[str, Any]:
+    """The axis ``axis`` of the grid table ``section`` (``"[grid]"``, ``"[heatmap]"``),
+    checked against the model's parameters (``specs``; none of ``params``, the fixed
+    ones): :meth:`Axis.resolve`'s dict."""
+    where = f"{section} axis '{axis}'"
+    if axis not in specs:
+        raise fail(f"{section}: {unknown_param(axis, specs, model_name)}")
+    if axis in params:
+        raise fail(f"parameter '{axis}' is both fixed in [params] and swept in {section}; remove one")
+    if not isinstance(value, Mapping):
+        raise fail(f"{where} must be a table, {{ start = .., stop = .., num = .. }} or {{ values = [..] }}, got {kind(value)}")
+    return Axis.check(value, fail, where=where).resolve(specs[axis], where, fail)
 
 
 # ---------------------------------------------------------------- shared checks

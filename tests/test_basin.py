@@ -208,6 +208,18 @@ def test_bundled_basin_configs_are_valid():
         assert load_basin_config(path).name == path.stem
 
 
+def test_resolved_config_is_itself_a_valid_config():
+    """What the dataset's ``config`` attribute holds (JSON) parses to the same basin."""
+    import json
+    from pathlib import Path
+
+    from jaxwalk.basin import load_basin_config, parse_basin_config
+
+    config = load_basin_config(Path(__file__).resolve().parents[1] / "sweeps" / "basin_simplest.toml")
+    again = parse_basin_config(json.loads(config.to_json()), source="round trip")
+    assert again.to_dict() == config.to_dict() and again.fixed == config.fixed and (again.x, again.y) == (config.x, config.y)
+
+
 def test_image_and_self_describing_dataset(tmp_path, capsys, gait):
     _, _, v_star = gait
     config = tmp_path / "tiny.toml"

@@ -1,5 +1,7 @@
 """The ``jaxwalk continue`` config: the example parses; bad input is one line with a hint, exit 2."""
 
+import json
+
 import pytest
 
 from jaxwalk import cli
@@ -12,6 +14,12 @@ GOOD = {"name": "c", "model": "simplest", "continuation": {"parameter": "gamma",
 def _with(**changes):
     table = {**GOOD["continuation"], **changes}
     return {**GOOD, "continuation": {k: v for k, v in table.items() if v is not None}}
+
+
+def test_resolved_config_is_itself_a_valid_config():
+    config = load_continue_config("sweeps/continue_simplest.toml")
+    again = parse_continue_config(json.loads(config.to_json()), source="round trip")
+    assert again.to_dict() == config.to_dict() and again.fixed == config.fixed and again.options == config.options
 
 
 def test_example_config_parses():
@@ -78,6 +86,7 @@ def test_dataset_is_self_describing_and_plots(tmp_path, capsys):
     ds = xr.open_zarr(path)
     assert ds.attrs["kind"] == "continuation" and ds.attrs["continuation_units"] == "rad" and "jaxwalk_version" in ds.attrs
     assert "parameter_bound" in ds["stop"].attrs["flag_meanings"] and "flip" in ds["label_kind"].attrs["flag_meanings"]
+    assert json.loads(ds.attrs["config"]) == config.to_dict() and ds.attrs["config_toml"] == config.text
     assert ds["stable"].values[0].tolist() == [True, True, False, False, False]
     assert cli.main(["plot", str(path), "--out", str(tmp_path), "--vars", "lambda_max", "v0"]) == 0
     assert (tmp_path / "continue_simplest_bifurcation_lambda_max.png").stat().st_size > 1000

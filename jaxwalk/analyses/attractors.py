@@ -19,15 +19,26 @@ The period-1 variables (``status``, ``lambda_max``, ...) keep their meaning.
 
 from __future__ import annotations
 
+from typing import ClassVar
+
 import numpy as np
 
 from jaxwalk import outputs as schema
-from jaxwalk.analyses.base import Analysis, Block, switch_table
+from jaxwalk.analyses.base import Analysis, Block, switch
+from jaxwalk.configs import Table, field
 from jaxwalk.outputs import Output
 from jaxwalk.status import Status
 
-#: ``[analysis] attractors`` keys and the :class:`jaxwalk.attractor.AttractorOptions` fields they set.
-KEYS = {"max_period": "max_period", "steps": "steps"}
+
+class Settings(Table):
+    """``[analysis] attractors = { .. }``: the search's bounds, the
+    :class:`jaxwalk.attractor.AttractorOptions` fields of the same names (an
+    absent key takes its default, read when resolved: that module needs JAX)."""
+
+    where: ClassVar[str] = "[analysis] attractors"
+
+    max_period: int | None = field(None, "a positive integer", ge=1)  # longest period tested (steps)
+    steps: int | None = field(None, "a positive integer", ge=1)  # most steps walked before giving up
 
 OUTPUTS = (
     Output("attractor_status", "int8", (
@@ -61,17 +72,14 @@ class Attractors(Analysis):
     def parse(self, table, fail, *, continuation) -> dict[str, int] | None:
         """``false``/absent (off), ``true`` (the defaults) or a table of ``max_period``
         (a power of two) and ``steps``; resolved with the defaults."""
-        table = switch_table(table, "attractors", KEYS, fail, "{ max_period = .., steps = .. }")
-        if table is None:
+        given = switch(table, "attractors", Settings, fail, "{ max_period = .., steps = .. }")
+        if given is None:
             return None
-        where = "[analysis] attractors"
         from jaxwalk.attractor import AttractorOptions
 
         defaults = AttractorOptions()
-        out = {"max_period": table.get("max_period", defaults.max_period), "steps": table.get("steps", defaults.steps)}
-        for key, n in out.items():
-            if isinstance(n, bool) or not isinstance(n, int) or n < 1:
-                raise fail(f"{where}: {key} must be a positive integer, got {n!r}")
+        out = {k: getattr(defaults, k) if v is None else v for k, v in given.model_dump().items()}
+        where = Settings.where
         if out["max_period"] & (out["max_period"] - 1):
             raise fail(f"{where}: max_period must be a power of two (periods 1, 2, 4, ... are tested), got {out['max_period']}")
         return out
@@ -81,7 +89,7 @@ class Attractors(Analysis):
             return None
         from jaxwalk.attractor import AttractorOptions
 
-        return AttractorOptions(**{KEYS[k]: v for k, v in resolved.items()})
+        return AttractorOptions(**resolved)
 
     def compute(self, block: Block) -> dict[str, np.ndarray]:
         from jaxwalk.attractor import grid_attractors

@@ -1,7 +1,9 @@
 """What an analysis beside the gait declares: its config keys, its outputs, its program.
 
 A plug-in is one module of :mod:`jaxwalk.analyses` holding ``ANALYSIS``, an
-instance of a subclass of :class:`Analysis`. Everything a sweep does with it
+instance of a subclass of :class:`Analysis`, and the declared shape of its
+settings (a :class:`~jaxwalk.configs.Table`: its keys, their types, ranges,
+defaults and messages, written once). Everything a sweep does with it
 goes through these methods: the config parser (:meth:`parse`,
 :meth:`to_dict`), the grid (:meth:`grid_options`, :meth:`compute`), the
 runner's checks (:meth:`finalise`), the store and the dataset
@@ -16,36 +18,30 @@ without JAX) and never import :mod:`jaxwalk.grid` or :mod:`jaxwalk.sweep`
 from __future__ import annotations
 
 import dataclasses
-import difflib
 from typing import Any, Callable, Mapping
 
 import numpy as np
 
 from jaxwalk import outputs as schema
+from jaxwalk.configs import Table, did_you_mean as did_you_mean  # where plug-ins found it
 from jaxwalk.outputs import Output
 
 
-def did_you_mean(key: str, choices) -> str:
-    """``" (did you mean 'step'?)"`` for the closest of ``choices``, or ``""``."""
-    close = difflib.get_close_matches(str(key), list(choices), n=1)
-    return f" (did you mean '{close[0]}'?)" if close else ""
-
-
-def switch_table(table: Mapping[str, Any], key: str, allowed, fail, example: str) -> Mapping[str, Any] | None:
-    """``[analysis] <key>`` written as ``false``/absent (``None``: off), ``true`` (``{}``:
-    the defaults) or a table whose keys are among ``allowed`` (``example``: its
-    form in the error message, ``"{ step = .., count = .. }"``)."""
+def switch(table: Mapping[str, Any], key: str, settings: type[Table], fail, example: str, *,
+           true_is_defaults: bool = True, **context: Any) -> Table | None:
+    """``[analysis] <key>`` written as ``false``/absent (``None``: off), ``true`` (the
+    ``settings`` Table's defaults; refused where ``true_is_defaults`` is false: a
+    key without a default) or a table checked as ``settings`` (``example``: its
+    form in the error message, ``"{ step = .., count = .. }"``; ``context``: the words
+    of the Table's messages, :meth:`~jaxwalk.configs.Table.check`)."""
     where = f"[analysis] {key}"
     value = table.get(key, False)
     if value is False:
         return None
-    if value is not True and not isinstance(value, Mapping):
-        raise fail(f"{where} must be true, false or a table {example}, got {value!r}")
-    table = {} if value is True else value
-    for name in table:
-        if name not in allowed:
-            raise fail(f"{where}: unknown key '{name}'{did_you_mean(name, allowed)} (allowed: {', '.join(allowed)})")
-    return table
+    if not isinstance(value, Mapping) and not (value is True and true_is_defaults):
+        forms = "true, false" if true_is_defaults else "false"
+        raise fail(f"{where} must be {forms} or a table {example}, got {value!r}")
+    return settings.check({} if value is True else value, fail, where=where, **context)
 
 
 @dataclasses.dataclass(frozen=True)

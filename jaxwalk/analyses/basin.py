@@ -22,21 +22,42 @@ period-2 cycle's basin, measured from a ball about the unstable fixed point).
 from __future__ import annotations
 
 import functools
-import math
-from typing import Any
+from typing import Annotated, Any, ClassVar
 
 import numpy as np
+from pydantic import Field
 
 from jaxwalk import outputs as schema
-from jaxwalk.analyses.base import Analysis, Block, did_you_mean, switch_table
+from jaxwalk.analyses.base import Analysis, Block, did_you_mean, switch
+from jaxwalk.configs import Distinct, Table, field
 from jaxwalk.outputs import Output
 from jaxwalk.status import Status
 
-#: ``[analysis] basin`` keys and their defaults (those of :class:`jaxwalk.global_stability.basin.BasinOptions`).
-DEFAULTS: dict[str, Any] = {"radius": 0.01, "samples": 256, "steps": 60, "tol": 1e-4, "directions": 16, "scan": 8,
-                            "bisections": 10, "scale": None, "coordinates": None, "seed": 0}
-_POSITIVE = ("radius", "tol")
-_COUNTS = {"samples": 2, "steps": 1, "directions": 1, "scan": 1, "bisections": 0, "seed": 0}
+_Positive = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+
+
+class Settings(Table):
+    """``[analysis] basin = { .. }``: the measure's settings, the fields of
+    :class:`jaxwalk.global_stability.basin.BasinOptions` (its docstring defines them;
+    these defaults are its defaults, which a test holds equal)."""
+
+    where: ClassVar[str] = "[analysis] basin"
+    must: ClassVar[str] = "{where}: {key} must be {what}, got {value!r}"
+
+    radius: float = field(0.01, "a positive number (scaled section norm)", gt=0, allow_inf_nan=False)  # of the ball of starts
+    samples: int = field(256, "an integer >= 2", ge=2)  # random starts in the ball
+    steps: int = field(60, "an integer >= 1", ge=1)  # most steps walked from a start
+    tol: float = field(1e-4, "a positive number (scaled section norm)", gt=0, allow_inf_nan=False)  # "returned" within this
+    directions: int = field(16, "an integer >= 1", ge=1)  # rays from the fixed point
+    scan: int = field(8, "an integer >= 1", ge=1)  # radii scanned along a ray before bisecting
+    bisections: int = field(10, "an integer >= 0", ge=0)  # halvings of a ray's failing interval
+    scale: list[_Positive] | None = field(None, "an array of positive numbers, one per section coordinate", min_length=1)
+    coordinates: Annotated[list[str], Distinct] | None = field(None, "a non-empty array of distinct section coordinate names", min_length=1)
+    seed: int = field(0, "an integer >= 0", ge=0)  # of the random starts
+
+
+#: ``[analysis] basin`` keys and their defaults (``scale``, ``coordinates``: ``None``, every coordinate alike).
+DEFAULTS: dict[str, Any] = {k: info.default for k, info in Settings.model_fields.items()}
 
 
 def _attrs(resolved, units) -> dict[str, Any]:
@@ -88,28 +109,15 @@ def options_of_items(model, items: tuple) -> dict[str, Any]:
     return fields
 
 
-def parse_basin(value, fail, where: str = "[analysis] basin") -> dict[str, Any]:
-    """The resolved settings of a ``basin`` table (``{}``: the defaults), TOML/JSON-ready:
-    ``scale`` and ``coordinates`` appear only when given."""
+def resolve(given: Settings, written, fail) -> dict[str, Any]:
+    """The resolved settings (TOML/JSON-ready) of a checked table and the keys ``written``:
+    every default but ``scale`` and ``coordinates``, which appear only when given
+    (after the others, in the order written: a resolved config keeps its fingerprint)."""
+    values = given.model_dump()
     out = {k: v for k, v in DEFAULTS.items() if v is not None}
-    for key, v in value.items():
-        if key in _POSITIVE:
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v < math.inf:
-                raise fail(f"{where}: {key} must be a positive number (scaled section norm), got {v!r}")
-            v = float(v)
-        elif key in _COUNTS:
-            if isinstance(v, bool) or not isinstance(v, int) or v < _COUNTS[key]:
-                raise fail(f"{where}: {key} must be an integer >= {_COUNTS[key]}, got {v!r}")
-        elif key == "scale":
-            if not isinstance(v, list) or not v or any(isinstance(x, bool) or not isinstance(x, (int, float)) or not 0 < x < math.inf for x in v):
-                raise fail(f"{where}: scale must be an array of positive numbers, one per section coordinate, got {v!r}")
-            v = [float(x) for x in v]
-        elif key == "coordinates":
-            if not isinstance(v, list) or not v or not all(isinstance(x, str) for x in v) or len(set(v)) != len(v):
-                raise fail(f"{where}: coordinates must be a non-empty array of distinct section coordinate names, got {v!r}")
-        out[key] = v
+    out.update((k, values[k]) for k in written)
     if out["tol"] >= out["radius"]:
-        raise fail(f"{where}: tol ({out['tol']}) must be below radius ({out['radius']})")
+        raise fail(f"{Settings.where}: tol ({out['tol']}) must be below radius ({out['radius']})")
     return out
 
 
@@ -147,8 +155,11 @@ class BasinAnalysis(Analysis):
 
     def parse(self, table, fail, *, continuation):
         """``false``/absent (off), ``true`` (the defaults) or a table of :data:`DEFAULTS`' keys."""
-        value = switch_table(table, "basin", tuple(DEFAULTS), fail, "{ radius = .., samples = .., steps = .. }")
-        return None if value is None else parse_basin(value, fail)
+        given = switch(table, "basin", Settings, fail, "{ radius = .., samples = .., steps = .. }")
+        if given is None:
+            return None
+        written = table["basin"] if given.model_fields_set else ()  # true: nothing written
+        return resolve(given, written, fail)
 
     def check_model(self, resolved, model, fail) -> None:
         if resolved is not None:

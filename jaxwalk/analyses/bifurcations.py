@@ -21,11 +21,21 @@ The table is computed again, the same, when a finished-but-not-renamed run is re
 from __future__ import annotations
 
 from pathlib import Path
+from typing import ClassVar
 
 import numpy as np
 
 from jaxwalk.analyses.base import Analysis
+from jaxwalk.configs import Table, field
 from jaxwalk.status import flag_attributes
+
+
+class Settings(Table):
+    """Its ``[analysis]`` key."""
+
+    where: ClassVar[str] = "[analysis]"
+
+    bifurcations: bool = field(False, "true or false")  # locate the bifurcations of every continuation line
 
 
 def table(config, model, store: Path, options, params, progress=None):
@@ -107,16 +117,14 @@ def write_table(config, model, store: Path, options, params, progress: bool = Tr
 
 class Bifurcations(Analysis):
     name = "bifurcations"
-    keys = ("bifurcations",)
+    keys = Settings.keys()
     order = 40
     off = False
     whole_grid = True
 
     def parse(self, table, fail, *, continuation) -> bool:
         """``true`` needs a continuation axis (the lines it searches)."""
-        value = table.get("bifurcations", False)
-        if not isinstance(value, bool):
-            raise fail(f"[analysis]: bifurcations must be true or false, got {value!r}")
+        value = Settings.pick(table, fail).bifurcations
         if value and continuation is None:
             raise fail("[analysis]: bifurcations = true needs a continuation axis (continuation is off)")
         return value

@@ -13,11 +13,21 @@ plug-in walks one step from each gait's fixed point and writes:
 from __future__ import annotations
 
 import functools
+from typing import ClassVar
 
 import numpy as np
 
 from jaxwalk.analyses.base import Analysis, Block, row_program
+from jaxwalk.configs import Table, field
 from jaxwalk.outputs import Output
+
+
+class Settings(Table):
+    """Its ``[analysis]`` key."""
+
+    where: ClassVar[str] = "[analysis]"
+
+    min_clearance: bool = field(False, "true or false")  # write the step's lowest swing-foot clearance
 
 OUTPUT = Output(
     "min_clearance", "float64",
@@ -42,15 +52,12 @@ def _program(model, solver, sub_batch: int):
 
 class Clearance(Analysis):
     name = "min_clearance"
-    keys = ("min_clearance",)
+    keys = Settings.keys()
     order = 50
     off = False
 
     def parse(self, table, fail, *, continuation) -> bool:
-        value = table.get("min_clearance", False)
-        if not isinstance(value, bool):
-            raise fail(f"[analysis]: min_clearance must be true or false, got {value!r}")
-        return value
+        return Settings.pick(table, fail).min_clearance
 
     def check_model(self, resolved, model, fail) -> None:
         if resolved and "min_clearance" not in model.context:

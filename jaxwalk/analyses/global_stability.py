@@ -7,18 +7,71 @@ Outputs (grid shape ``S``, NaN where no gait was found, ``status != 0``):
 * ``mfpt``, ``mfpt_error``, ``mfpt_quasi_stationary``, ``mfpt_escaped``:
   :mod:`~jaxwalk.global_stability.mfpt`; ``mfpt`` is ``inf`` for ``sigma = 0``.
 
-The settings are checked by :mod:`jaxwalk.global_stability.options`.
+Their settings are declared here (:class:`GaitSensitivity`, :class:`Mfpt`) and
+become a :class:`jaxwalk.global_stability.options.GlobalOptions` for the grid.
 """
 
 from __future__ import annotations
 
 import functools
-from typing import Any, Mapping
+from typing import Annotated, Any, ClassVar, Mapping
 
 import numpy as np
 
-from jaxwalk.analyses.base import Analysis, Block, row_program
+from jaxwalk.analyses.base import Analysis, Block, did_you_mean, row_program, switch
+from jaxwalk.configs import Distinct, Table, field
 from jaxwalk.outputs import Output
+
+
+class GaitSensitivity(Table):
+    """``[analysis] gait_sensitivity = { .. }`` (``true``: the default indicators)."""
+
+    where: ClassVar[str] = "[analysis] gait_sensitivity"
+
+    #: The gait indicators whose response the norm measures (names of
+    #: :data:`jaxwalk.global_stability.sensitivity_norm.INDICATORS`; checked when resolved).
+    indicators: Annotated[list[Any], Distinct] | None = field(None, "a non-empty array of distinct names", min_length=1, message=(
+        "{where}: indicators must be {what} (known: {known}), got {value!r}"))
+
+
+class Mfpt(Table):
+    """``[analysis] mfpt = { sigma = .. }``: the terrain and the chain's discretisation; an
+    absent key but ``sigma`` takes :class:`jaxwalk.global_stability.mfpt.MFPTOptions`' default."""
+
+    where: ClassVar[str] = "[analysis] mfpt"
+
+    sigma: float = field(what="a number >= 0 (model length units)", ge=0, allow_inf_nan=False, missing=(
+        "{where}: needs sigma (the standard deviation of each step's ground height change, model length units)"))
+    mesh: int | None = field(None, "an integer >= 3", ge=3)  # mesh points per principal axis
+    span: float | None = field(None, "a positive number (standard deviations)", gt=0, allow_inf_nan=False)
+    samples: int | None = field(None, "an integer >= 4", ge=4)  # terrain samples per mesh point
+    max_axes: int | None = field(None, "an integer >= 1", ge=1)  # principal axes meshed, at most
+
+
+def _gait_sensitivity(table, fail) -> dict[str, Any] | None:
+    if table.get("gait_sensitivity", False) is False:
+        return None  # off: the indicators' module (JAX) is not imported
+    from jaxwalk.global_stability.sensitivity_norm import DEFAULT_INDICATORS, INDICATORS
+
+    known = ", ".join(INDICATORS)
+    given = switch(table, "gait_sensitivity", GaitSensitivity, fail, "{ indicators = [..] }", known=known)
+    names = list(DEFAULT_INDICATORS) if given.indicators is None else given.indicators
+    for name in names:
+        if name not in INDICATORS:
+            raise fail(f"{GaitSensitivity.where}: unknown indicator {name!r}{did_you_mean(name, INDICATORS)} (known: {known})")
+    return {"indicators": list(names)}
+
+
+def _mfpt(table, fail) -> dict[str, Any] | None:
+    given = switch(table, "mfpt", Mfpt, fail, "{ sigma = .. }", true_is_defaults=False)
+    if given is None:
+        return None
+    from jaxwalk.global_stability.mfpt import MFPTOptions
+
+    value = {k: getattr(MFPTOptions, k) if v is None else v for k, v in given.model_dump().items()}
+    # In this order: the resolved config's fingerprint.
+    return {"sigma": float(value["sigma"]), "span": float(value["span"]),
+            **{k: value[k] for k in ("mesh", "samples", "max_axes")}}
 
 MFPT_KEYS = ("mfpt", "mfpt_error", "mfpt_quasi_stationary", "mfpt_escaped")
 
@@ -128,11 +181,8 @@ class GlobalStability(Analysis):
 
     def parse(self, table, fail, *, continuation) -> dict[str, Any]:
         """The resolved keys that are set (``{}`` when neither is)."""
-        if not any(k in table for k in self.keys):
-            return {}
-        from jaxwalk.global_stability.options import parse
-
-        return parse(table, fail)
+        found = {"gait_sensitivity": _gait_sensitivity(table, fail), "mfpt": _mfpt(table, fail)}
+        return {k: v for k, v in found.items() if v is not None}
 
     def to_dict(self, resolved) -> dict[str, Any]:
         return dict(resolved)  # only the keys that are set: fingerprints unchanged without them

@@ -14,17 +14,27 @@ runs it on a block's gaits and declares its outputs:
 from __future__ import annotations
 
 import functools
-import math
-from typing import Any, Mapping
+from typing import Any, ClassVar, Mapping
 
 import numpy as np
 
-from jaxwalk.analyses.base import Analysis, Block, row_program, switch_table
+from jaxwalk.analyses.base import Analysis, Block, row_program, switch
+from jaxwalk.configs import Table, field
 from jaxwalk.outputs import Output
 from jaxwalk.status import Status
 
-#: Keys of ``[analysis] h_max`` and the :class:`jaxwalk.stepdown.StepDownOptions` fields they set.
-H_MAX_KEYS = {"step": "dh", "count": "count", "steps": "n_steps"}
+
+class Settings(Table):
+    """``[analysis] h_max = { .. }``: the step-down test. An absent key takes the
+    default of :class:`jaxwalk.stepdown.StepDownOptions` (read when resolved: that
+    module needs JAX, a config check does not)."""
+
+    where: ClassVar[str] = "[analysis] h_max"
+
+    step: float | None = field(None, "a positive number (the resolution, in model length units)",
+                               gt=0, allow_inf_nan=False)
+    count: int | None = field(None, "a positive integer (drops tried: step, 2 step, ..., count * step)", ge=1)
+    steps: int | None = field(None, "a positive integer (steps to survive after the drop)", ge=1)
 
 
 def _h_max_attrs(resolved: Mapping[str, Any], units) -> dict[str, Any]:
@@ -76,25 +86,17 @@ class StepDown(Analysis):
     def parse(self, table, fail, *, continuation) -> dict[str, float | int] | None:
         """``false`` (off), ``true`` (the defaults) or a table of ``step``/``count``/``steps``,
         each optional; resolved with the defaults of :class:`jaxwalk.stepdown.StepDownOptions`."""
-        table = switch_table(table, "h_max", H_MAX_KEYS, fail, "{ step = .., count = .., steps = .. }")
-        if table is None:
+        given = switch(table, "h_max", Settings, fail, "{ step = .., count = .., steps = .. }")
+        if given is None:
             return None
-        where = "[analysis] h_max"
-        step = table.get("step")
-        if step is not None and (isinstance(step, bool) or not isinstance(step, (int, float)) or not (0 < step < math.inf)):
-            raise fail(f"{where}: step must be a positive number (the resolution, in model length units), got {step!r}")
-        for key, meaning in (("count", "drops tried: step, 2 step, ..., count * step"), ("steps", "steps to survive after the drop")):
-            n = table.get(key)
-            if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < 1):
-                raise fail(f"{where}: {key} must be a positive integer ({meaning}), got {n!r}")
-
         from jaxwalk.stepdown import StepDownOptions
 
         defaults = StepDownOptions()
+        pick = lambda value, default: default if value is None else value  # noqa: E731
         return {
-            "step": float(table.get("step", defaults.dh)),
-            "count": int(table.get("count", defaults.count)),
-            "steps": int(table.get("steps", defaults.n_steps)),
+            "step": float(pick(given.step, defaults.dh)),
+            "count": int(pick(given.count, defaults.count)),
+            "steps": int(pick(given.steps, defaults.n_steps)),
         }
 
     def to_dict(self, resolved) -> dict[str, Any]:
@@ -105,7 +107,7 @@ class StepDown(Analysis):
             return None
         from jaxwalk.stepdown import StepDownOptions
 
-        return StepDownOptions(**{H_MAX_KEYS[k]: v for k, v in resolved.items()})
+        return StepDownOptions(dh=resolved["step"], count=resolved["count"], n_steps=resolved["steps"])
 
     def compute(self, block: Block) -> dict[str, np.ndarray]:
         status = block.results["status"]

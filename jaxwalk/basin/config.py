@@ -17,12 +17,13 @@ line, prefixed by the file, with a "did you mean" hint for a misspelt key.
 from __future__ import annotations
 
 import dataclasses
+import json
 from pathlib import Path
 from typing import Annotated, Any, ClassVar, Mapping
 
 from pydantic import Field
 
-from jaxwalk.analyses.basin import DEFAULTS, check_section
+from jaxwalk.analyses.basin import DEFAULTS, check_section  # [analysis] basin's defaults: the measure's
 from jaxwalk.configs import Table, TopLevel, check_name, check_params, failing, field, model_of, parse_toml, read_config_text
 
 #: Largest image: starts are walked at once (one array of them).
@@ -70,7 +71,8 @@ class BasinConfig:
         points: ``(nx, ny)``.
         steps, tol: walk limit and return tolerance (scaled norm).
         scale: ``(n_v,)`` the norm's per-coordinate scales.
-        source, text: the file and its text (kept in the dataset).
+        source, text: the file and its TOML text (the dataset keeps both, beside
+            the resolved config, :meth:`to_json`).
     """
 
     name: str
@@ -85,6 +87,19 @@ class BasinConfig:
     scale: tuple[float, ...]
     source: str
     text: str | None
+
+    def to_dict(self) -> dict[str, Any]:
+        """The resolved config, itself a valid config (TOML/JSON-ready): every parameter,
+        the coordinates by name, every ``[basin]`` key with its value in force."""
+        from jaxwalk.models import get_model
+
+        names = get_model(self.model).section_names
+        basin = {"x": names[self.x], "y": names[self.y], "span": list(self.span), "points": list(self.points),
+                 "steps": self.steps, "tol": self.tol, "scale": list(self.scale)}
+        return {"name": self.name, "model": self.model, "params": dict(self.fixed), "basin": basin}
+
+    def to_json(self) -> str:
+        return json.dumps(self.to_dict())
 
 
 def load_basin_config(path: str | Path) -> BasinConfig:

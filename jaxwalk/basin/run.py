@@ -121,7 +121,8 @@ def build_dataset(config: BasinConfig, model, gait, xs, ys, fates, command: str 
         "scale": list(config.scale),
         "norm": "sqrt(sum_i ((v_i - v*_i) / scale_i)^2) over the section coordinates (jaxwalk.global_stability.basin)",
         "returned": "ok: after some completed step (1..steps_limit) within tol of the fixed point",
-        "config": config.text or "", "config_source": config.source,
+        # As a sweep's: the resolved config as JSON (itself a valid config), and the file as written.
+        "config": config.to_json(), "config_toml": config.text or "", "config_source": config.source,
         **provenance(command, "jaxwalk.basin.run_basin"),
     }
     return xr.Dataset(data, coords=coords, attrs=attrs)

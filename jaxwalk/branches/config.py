@@ -9,6 +9,7 @@ hint for a misspelt key.
 from __future__ import annotations
 
 import dataclasses
+import json
 from pathlib import Path
 from typing import Annotated, Any, ClassVar, Mapping
 
@@ -69,7 +70,8 @@ class ContinueConfig:
         switch_branches, switch_eps, switch_max_steps: at each located flip, continue the
             period-2k branch from ``eps`` along its eigenvector, for at most this many points.
         tol: location accuracy of the labelled points (arclength, so parameter units at most).
-        source, text: the file and its text (kept in the dataset).
+        source, text: the file and its TOML text (the dataset keeps both, beside
+            the resolved config, :meth:`to_json`).
     """
 
     name: str
@@ -87,6 +89,21 @@ class ContinueConfig:
     tol: float
     source: str
     text: str | None
+
+    def to_dict(self) -> dict[str, Any]:
+        """The resolved config, itself a valid config (TOML/JSON-ready): every fixed
+        parameter, every ``[continuation]`` key with its value in force."""
+        o = self.options
+        lo, hi = self.bounds
+        table = {"parameter": self.parameter, "start": list(self.starts), "min": lo, "max": hi,
+                 "direction": self.direction, "period": self.period, "ds": o.ds, "ds_min": o.ds_min, "ds_max": o.ds_max,
+                 "max_steps": o.max_steps, "switch_branches": self.switch_branches, "switch_eps": self.switch_eps,
+                 "switch_max_steps": self.switch_max_steps, "tol": self.tol}
+        params = {k: v for k, v in self.fixed.items() if k != self.parameter}  # its values are the starts
+        return {"name": self.name, "model": self.model, "params": params, "continuation": table}
+
+    def to_json(self) -> str:
+        return json.dumps(self.to_dict())
 
 
 def load_continue_config(path: str | Path) -> ContinueConfig:

@@ -131,7 +131,8 @@ def build_dataset(config: ContinueConfig, branches: Branch, labels: BranchPoints
         "fixed_parameters": " ".join(f"{k}={v!r}" for k, v in config.fixed.items() if k != config.parameter),
         "bounds": list(config.bounds), "starts": list(config.starts), "direction": config.direction,
         "location_tol": config.tol, "options": repr(config.options),
-        "config": config.text or "", "config_source": config.source,
+        # As a sweep's: the resolved config as JSON (itself a valid config), and the file as written.
+        "config": config.to_json(), "config_toml": config.text or "", "config_source": config.source,
         **provenance(command, "jaxwalk.branches.run_continue"),
     }
     # Section names as an attribute: a string coordinate has no zarr v3 data type yet.

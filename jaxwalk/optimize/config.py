@@ -30,17 +30,19 @@ with a one-line message naming the file, the section and the key.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import math
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Annotated, Any, ClassVar, Literal, Mapping
 
 import numpy as np
+from pydantic import Field, create_model
 
 from jaxwalk.optimize.engine import OPTIMIZERS, OWNERS, QUANTITIES, Problem
-from jaxwalk.analyses import did_you_mean as _did_you_mean
-from jaxwalk.configs import Solver, TopLevel, check_name, check_params, failing, field, kind, model_of, parse_toml, read_config_text
-from jaxwalk.sweep.config import GridAxis, _axis, _axis_spec
+from jaxwalk.configs import (Solver, Table, TopLevel, check_axis, check_name, check_params, did_you_mean, failing, field, model_of,
+                             parse_toml, read_config_text, unknown_param)
+from jaxwalk.sweep.config import GridAxis, grid_axis
 from jaxwalk.walker import check_supported
 
 
@@ -55,7 +57,6 @@ class Document(TopLevel):
 
 
 TOP_LEVEL_KEYS = Document.keys()
-OPTIMIZE_KEYS = ("objective", "bounds", "iterations", "learning_rate", "optimizer", "hold", "penalty", "dual_every", "max_retries")
 #: Most starts and heatmap points accepted (each start is a gait search with derivatives per iteration).
 MAX_STARTS = 4096
 MAX_HEATMAP_POINTS = 100_000
@@ -150,7 +151,7 @@ def parse_optimize_config(data: Mapping[str, Any], *, source: str = "<config>", 
     table = data.get("optimize")
     if not table:
         raise fail("[optimize] is missing or empty: give at least bounds = { <parameter> = [lower, upper] }")
-    problem = _problem(table, specs, params, model_name, fail)
+    problem = Optimize.check(table, fail).problem(specs, params, model_name, fail)
     _check_capabilities(problem, model, fail)
     starts, start_fixed = _starts(data.get("starts", {}), problem, specs, params, model_name, fail)
     heatmap, continuation = _heatmap(data.get("heatmap", {}), specs, model_name, fail)
@@ -163,69 +164,102 @@ def parse_optimize_config(data: Mapping[str, Any], *, source: str = "<config>", 
     )
 
 
+def _default(name: str) -> Any:
+    """The :class:`~jaxwalk.optimize.engine.Problem` default of a setting: one place for it."""
+    return Problem.__dataclass_fields__[name].default
+
+
+_Finite = Annotated[float, Field(allow_inf_nan=False)]
+#: What a held quantity may be: every optimisable quantity but ``lambda_max`` (no target for it).
+HOLDABLE = tuple(q for q in QUANTITIES if q != "lambda_max")
+
+
+class Optimize(Table):
+    """``[optimize]``: the objective, the optimised parameters' boxes, the optimiser's settings."""
+
+    where: ClassVar[str] = "[optimize]"
+
+    objective: Literal[(*QUANTITIES, *(f"-{q}" for q in QUANTITIES))] = field(
+        "lambda_max", f"one of {', '.join(QUANTITIES)} (a leading '-' maximises)")
+    bounds: dict[str, Any] = field(
+        what="a table {parameter = [lower, upper]} of the optimised parameters (the model's units)", min_length=1,
+        message="{where}: bounds must be a table of the optimised parameters, e.g. bounds = {{ r = [0.3, 0.6] }}",
+        missing="{where}: bounds must be a table of the optimised parameters, e.g. bounds = {{ r = [0.3, 0.6] }}")
+    iterations: int = field(_default("iterations"), "a positive integer", ge=1, le=10_000, messages={
+        "less_than_equal": "{where}: iterations = {value} is more than 10,000"})
+    learning_rate: float = field(_default("learning_rate"), "a positive number", gt=0, allow_inf_nan=False)
+    optimizer: Literal[OPTIMIZERS] = field(_default("optimizer"), f"one of {', '.join(OPTIMIZERS)}")
+    hold: dict[str, Any] = field({}, "a table {quantity = target}, held by the augmented Lagrangian", message=(
+        "{where}: hold must be a table, e.g. hold = {{ speed = 0.09 }}, got {kind}"))
+    penalty: float = field(_default("penalty"), "a positive number", gt=0, allow_inf_nan=False)
+    dual_every: int = field(_default("dual_every"), "a positive integer", ge=1)
+    max_retries: int = field(_default("max_retries"), "a non-negative integer", ge=0)
+
+    def problem(self, specs, params, model_name, fail) -> Problem:
+        """The :class:`~jaxwalk.optimize.engine.Problem`: the boxes and held targets checked against the model."""
+        where = self.where
+        names, lower, upper = [], [], []
+        for pname, box in self.bounds.items():
+            if pname not in specs:
+                raise fail(f"{where} bounds: {unknown_param(pname, specs, model_name)}")
+            if pname in params:
+                raise fail(f"parameter '{pname}' is both fixed in [params] and optimised in [optimize] bounds; remove one")
+            if not isinstance(box, list) or len(box) != 2 or not all(_number(b) for b in box):
+                raise fail(f"{where} bounds: '{pname}' must be [lower, upper] (two numbers), got {box!r}")
+            lo, hi = float(box[0]), float(box[1])
+            if not lo < hi:
+                raise fail(f"{where} bounds: '{pname}' needs lower < upper, got [{lo}, {hi}]")
+            for b in (lo, hi):
+                _within(specs[pname], b, f"{where} bounds", fail)
+            names.append(pname), lower.append(lo), upper.append(hi)
+        objective = self.objective.lstrip("-")
+        for q, target in self.hold.items():
+            if q not in HOLDABLE:
+                raise fail(f"{where} hold: unknown quantity '{q}'{did_you_mean(q, QUANTITIES)} (allowed: {', '.join(HOLDABLE)})")
+            if not _number(target) or target == 0:
+                raise fail(f"{where} hold: {q} must be a non-zero number (the target), got {target!r}")
+            if q == objective:
+                raise fail(f"{where}: the objective '{q}' cannot also be held")
+        settings = self.model_dump(include={"iterations", "learning_rate", "optimizer", "penalty", "dual_every", "max_retries"})
+        return Problem(names=tuple(names), lower=tuple(lower), upper=tuple(upper), objective=objective,
+                       sign=-1.0 if self.objective.startswith("-") else 1.0,
+                       hold={q: float(t) for q, t in self.hold.items()}, **settings)
+
+
 def _number(value) -> bool:
     return not isinstance(value, bool) and isinstance(value, (int, float)) and math.isfinite(value)
 
 
-def _problem(table, specs, params, model_name, fail) -> Problem:
-    where = "[optimize]"
-    for key in table:
-        if key not in OPTIMIZE_KEYS:
-            raise fail(f"{where}: unknown key '{key}'{_did_you_mean(key, OPTIMIZE_KEYS)} (allowed: {', '.join(OPTIMIZE_KEYS)})")
-    objective = table.get("objective", "lambda_max")
-    if not isinstance(objective, str) or objective.lstrip("-") not in QUANTITIES or objective.startswith("--"):
-        raise fail(f"{where}: objective must be one of {', '.join(QUANTITIES)} (a leading '-' maximises), got {objective!r}")
-    bounds = table.get("bounds")
-    if not isinstance(bounds, Mapping) or not bounds:
-        raise fail(f"{where}: bounds must be a table of the optimised parameters, e.g. bounds = {{ r = [0.3, 0.6] }}")
-    names, lower, upper = [], [], []
-    for pname, box in bounds.items():
-        if pname not in specs:
-            raise fail(f"{where} bounds: unknown parameter '{pname}' for model '{model_name}'{_did_you_mean(pname, specs)} (known: {', '.join(specs)})")
-        if pname in params:
-            raise fail(f"parameter '{pname}' is both fixed in [params] and optimised in [optimize] bounds; remove one")
-        if not isinstance(box, list) or len(box) != 2 or not all(_number(b) for b in box):
-            raise fail(f"{where} bounds: '{pname}' must be [lower, upper] (two numbers), got {box!r}")
-        lo, hi = float(box[0]), float(box[1])
-        if not lo < hi:
-            raise fail(f"{where} bounds: '{pname}' needs lower < upper, got [{lo}, {hi}]")
-        for b in (lo, hi):
-            try:
-                specs[pname].check(b)
-            except ValueError as err:
-                raise fail(f"{where} bounds: {err}") from None
-        names.append(pname), lower.append(lo), upper.append(hi)
-    hold = table.get("hold", {})
-    if not isinstance(hold, Mapping):
-        raise fail(f"{where}: hold must be a table, e.g. hold = {{ speed = 0.09 }}, got {kind(hold)}")
-    for q, target in hold.items():
-        if q not in QUANTITIES or q == "lambda_max":
-            allowed = ", ".join(x for x in QUANTITIES if x != "lambda_max")
-            raise fail(f"{where} hold: unknown quantity '{q}'{_did_you_mean(q, QUANTITIES)} (allowed: {allowed})")
-        if not _number(target) or target == 0:
-            raise fail(f"{where} hold: {q} must be a non-zero number (the target), got {target!r}")
-        if q == objective.lstrip("-"):
-            raise fail(f"{where}: the objective '{q}' cannot also be held")
-    settings = {}
-    for key, kind, default in (
-        ("iterations", int, 30), ("learning_rate", float, 0.02), ("penalty", float, 10.0), ("dual_every", int, 10), ("max_retries", int, 4)
-    ):
-        value = table.get(key, default)
-        bad = (not isinstance(value, int) or isinstance(value, bool) or value < (0 if key == "max_retries" else 1)) if kind is int else (not _number(value) or value <= 0)
-        if bad:
-            what = "a non-negative integer" if key == "max_retries" else ("a positive integer" if kind is int else "a positive number")
-            raise fail(f"{where}: {key} must be {what}, got {value!r}")
-        settings[key] = kind(value)
-    optimizer = table.get("optimizer", "normalized")
-    if optimizer not in OPTIMIZERS:
-        raise fail(f"{where}: optimizer must be one of {', '.join(OPTIMIZERS)}, got {optimizer!r}")
-    settings["optimizer"] = optimizer
-    if settings["iterations"] > 10_000:
-        raise fail(f"{where}: iterations = {settings['iterations']} is more than 10,000")
-    return Problem(
-        names=tuple(names), lower=tuple(lower), upper=tuple(upper), objective=objective.lstrip("-"),
-        sign=-1.0 if objective.startswith("-") else 1.0, hold={q: float(t) for q, t in hold.items()}, **settings,
-    )
+def _within(spec, value: float, where: str, fail) -> None:
+    """``value`` within the parameter's bounds (a :class:`~jaxwalk.parameters.ParamSpec`)."""
+    try:
+        spec.check(value)
+    except ValueError as err:
+        raise fail(f"{where}: {err}") from None
+
+
+class Starts(Table):
+    """``[starts]``: each optimised parameter's start values, and fixed parameters that
+    vary per start, by the model's parameter names; equal-length arrays, or one
+    number for every start. The keys are the model's (:func:`starts_table`)."""
+
+    where: ClassVar[str] = "[starts]"
+    must: ClassVar[str] = "{where}: '{key}' must be a number or a non-empty array of numbers, got {value!r}"
+    model_name: ClassVar[str] = ""
+
+    @classmethod
+    def unknown(cls, key: str, value: Any, where: str | None = None) -> str:
+        return f"{where or cls.where}: {unknown_param(key, cls.keys(), cls.model_name)}"
+
+
+@functools.lru_cache(maxsize=None)
+def starts_table(model_name: str, names: tuple[str, ...]) -> type[Starts]:
+    """The :class:`Starts` of a model whose parameters are ``names``: one optional key each."""
+    column = Annotated[list[_Finite], Field(min_length=1)] | _Finite | None
+    keys = {n: (column, field(None, "its start values (the parameter's units)")) for n in names}
+    table = create_model(f"Starts_{model_name}", __base__=Starts, **keys)
+    table.model_name = model_name
+    return table
 
 
 def _check_capabilities(problem: Problem, model, fail) -> None:
@@ -241,20 +275,14 @@ def _check_capabilities(problem: Problem, model, fail) -> None:
 def _starts(table, problem: Problem, specs, params, model_name, fail):
     """``(S, n_p)`` starts and ``{fixed name: (S,)}``; without [starts], one start at the box's centre."""
     where = "[starts]"
+    starts_table(model_name, tuple(specs)).check(table, fail)
     columns: dict[str, Any] = {}
     for key, value in table.items():
-        if key not in specs:
-            raise fail(f"{where}: unknown parameter '{key}' for model '{model_name}'{_did_you_mean(key, specs)} (known: {', '.join(specs)})")
         if key in params:
             raise fail(f"{where}: '{key}' is fixed in [params]; give it in one place")
         values = value if isinstance(value, list) else [value]
-        if not values or not all(_number(v) for v in values):
-            raise fail(f"{where}: '{key}' must be a number or a non-empty array of numbers, got {value!r}")
-        for v in values:
-            try:
-                specs[key].check(v)
-            except ValueError as err:
-                raise fail(f"{where}: {err}") from None
+        for v in values:  # as written: the message shows the reader's number
+            _within(specs[key], v, where, fail)
         columns[key] = [float(v) for v in values]
     lengths = {len(v) for v in columns.values() if len(v) > 1}
     if len(lengths) > 1:
@@ -277,8 +305,8 @@ def _heatmap(table, specs, model_name, fail):
     axes_raw = {k: v for k, v in table.items() if k != "continuation"}
     if len(axes_raw) > 2:
         raise fail(f"[heatmap]: at most two axes (a map over two parameters), got {len(axes_raw)}: {', '.join(axes_raw)}")
-    specs_out = {a: _axis_spec(a, s, specs, {}, model_name, lambda m: fail(m.replace("[grid]", "[heatmap]"))) for a, s in axes_raw.items()}
-    axes = tuple(_axis(a, s) for a, s in specs_out.items())
+    specs_out = {a: check_axis("[heatmap]", a, s, specs, {}, model_name, fail) for a, s in axes_raw.items()}
+    axes = tuple(grid_axis(a, s) for a, s in specs_out.items())
     if math.prod(len(a.values) for a in axes) > MAX_HEATMAP_POINTS:
         raise fail(f"[heatmap]: more than {MAX_HEATMAP_POINTS:,} points")
     continuation = table.get("continuation", bool(axes))
@@ -289,3 +317,7 @@ def _heatmap(table, specs, model_name, fail):
     elif not isinstance(continuation, str) or continuation not in specs_out:
         raise fail(f"[heatmap]: continuation must be one of its axes ({', '.join(specs_out) or 'none given'}) or false, got {continuation!r}")
     return axes, continuation
+
+
+#: Keys of ``[optimize]``, in the order messages list them.
+OPTIMIZE_KEYS = Optimize.keys()

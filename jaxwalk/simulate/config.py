@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import math
 from pathlib import Path
 from typing import Annotated, Any, ClassVar, Mapping
 
@@ -47,15 +46,24 @@ class Document(TopLevel):
 
 
 class Simulate(Table):
-    """``[simulate]``; ranges that depend on the model (``dt``, ``drop``) are checked after."""
+    """``[simulate]``; ranges that depend on the model (``dt``, ``drop``) are checked after.
+
+    The command line's ``--steps`` and ``--drop`` are checked as these keys
+    (:func:`parse_simulate_config`), their messages naming the option.
+    """
 
     where: ClassVar[str] = _WHERE
-    must: ClassVar[str] = "{where} {key} must be {what}, got {value!r}"
+    must: ClassVar[str] = "{name} must be {what}, got {value!r}"
 
-    steps: int | None = field(None, "a positive integer", ge=1)
+    #: Steps to walk (``--steps`` overrides it; one of the two is needed).
+    steps: int | None = field(None, "a positive integer", ge=1, le=MAX_STEPS, messages={
+        "less_than_equal": "{name} = {value} is more than the limit of %d steps" % MAX_STEPS})
+    #: A vertical step-down of the ground at the first touchdown, model length units (``--drop`` overrides it).
     drop: float = field(0.0, "a number >= 0", ge=0, allow_inf_nan=False, message=(
-        "{where} drop must be a number >= 0 (a vertical step-down at the first touchdown, in {length}), got {value!r}"))
+        "{name} must be a number >= 0 (a vertical step-down at the first touchdown, in {length}), got {value!r}"))
+    #: Output sampling interval, model time units (default: a fiftieth of the time scale sqrt(L/g)).
     dt: float | None = field(None, "the output sampling interval", allow_inf_nan=False, message="{dt_range}, got {value!r}")
+    #: Start here (section coordinates) instead of at the periodic gait.
     v0: list[Annotated[float, Field(allow_inf_nan=False)]] | None = field(
         None, "the start", message="{where} v0 must be an array of {n_v} finite numbers ({names}), got {value!r}")
 
@@ -141,50 +149,30 @@ def parse_simulate_config(
     fixed.update(params)
     scale = float(model.time_scale({k: np.float64(v) for k, v in fixed.items()}))
     names = model.section_names
-    table = Simulate.check(data.get("simulate", {}), fail, length=model.units["length"], n_v=len(names),
-                           names=", ".join(names), dt_range=_dt_range(model, scale))
+    words = dict(length=model.units["length"], n_v=len(names), names=", ".join(names), dt_range=_dt_range(model, scale))
+    table = Simulate.check(data.get("simulate", {}), fail, **words)
+    # The command line's values, checked as the file's (the file's are checked even where overridden).
+    override = {}
+    for key, value in (("steps", steps), ("drop", drop)):
+        if value is not None:
+            override[key] = getattr(Simulate.check({key: value}, fail, name=f"--{key}", **words), key)
+    if table.steps is None and "steps" not in override:
+        raise fail("no step count: give --steps N or [simulate] steps = N")
+    _capable(table.drop, model, f"{_WHERE} drop", fail)
+    if "drop" in override:
+        _capable(override["drop"], model, "--drop", fail)
     return SimulateConfig(
-        name=name, model=model_name, params=params, fixed=fixed, steps=_steps(table.steps, steps, fail),
-        drop=_drop(table.drop, drop, model, fail), dt=_dt(table.dt, model, scale, fail), v0=_v0(table.v0, model, fail),
+        name=name, model=model_name, params=params, fixed=fixed, steps=int(override.get("steps", table.steps)),
+        drop=float(override.get("drop", table.drop)), dt=_dt(table.dt, model, scale, fail), v0=_v0(table.v0, model, fail),
         source=source, text=text,
     )
 
 
-def _steps(value: int | None, override: int | None, fail) -> int:
-    """The step count: ``--steps`` over ``[simulate] steps``; the file's value is
-    checked even where the command line overrides it."""
-
-    def limit(n, what):
-        if n > MAX_STEPS:
-            raise fail(f"{what} = {n} is more than the limit of {MAX_STEPS} steps")
-        return n
-
-    n = limit(value, f"{_WHERE} steps") if value is not None else None
-    if override is not None:
-        if isinstance(override, bool) or not isinstance(override, int) or override < 1:
-            raise fail(f"--steps must be a positive integer, got {override!r}")
-        n = limit(override, "--steps")
-    if n is None:
-        raise fail("no step count: give --steps N or [simulate] steps = N")
-    return int(n)
-
-
-def _drop(value: float, override: float | None, model: Walker, fail) -> float:
-    """The step-down at the first touchdown: ``--drop`` over ``[simulate] drop`` (both checked)."""
-
-    def capable(h, what):
-        reason = missing(model, NEEDS["drop"]) if h > 0 else None
-        if reason:
-            raise fail(f"{what}: model '{model.name}' {reason}")
-        return h
-
-    h = capable(value, f"{_WHERE} drop")
-    if override is not None:
-        if isinstance(override, bool) or not isinstance(override, (int, float)) or not math.isfinite(override) or override < 0:
-            raise fail(f"--drop must be a number >= 0 (a vertical step-down at the first touchdown, in {model.units['length']}), "
-                       f"got {override!r}")
-        h = capable(override, "--drop")
-    return float(h)
+def _capable(h: float, model: Walker, what: str, fail) -> None:
+    """A step-down ``h > 0`` needs the model's step-down capability (:data:`jaxwalk.walker.NEEDS`)."""
+    reason = missing(model, NEEDS["drop"]) if h > 0 else None
+    if reason:
+        raise fail(f"{what}: model '{model.name}' {reason}")
 
 
 def _dt_range(model: Walker, scale: float) -> str:

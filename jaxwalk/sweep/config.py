@@ -30,7 +30,7 @@ import numpy as np
 
 from jaxwalk import analyses
 from jaxwalk.analyses import did_you_mean as _did_you_mean
-from jaxwalk.configs import Solver, Table, TopLevel, check_name, check_params, failing, field, human_bytes, kind, model_of, unknown_param
+from jaxwalk.configs import Axis, Solver, Table, TopLevel, check_axis, check_name, check_params, failing, field, human_bytes, model_of
 from jaxwalk.configs import parse_toml as parse_toml, read_config_text as read_config_text  # the sweep API's names
 from jaxwalk.errors import ConfigError as ConfigError  # the error root, re-exported where it was
 from jaxwalk.parameters import ParamSpec
@@ -39,7 +39,8 @@ from jaxwalk.walker import check_supported
 #: Largest grid accepted by default (points); callers may pass their own ``max_points``.
 DEFAULT_MAX_POINTS = 10_000_000
 
-AXIS_KEYS = ("start", "stop", "num", "values")
+#: Keys of a ``[grid]`` axis (:class:`jaxwalk.configs.Axis`).
+AXIS_KEYS = Axis.keys()
 
 
 class Gait(Table):
@@ -227,14 +228,14 @@ def parse_config(
     if not axes_raw:
         raise fail("[grid] is missing or empty: sweep at least one parameter (e.g. gamma = { start = 0.002, stop = 0.015, num = 64 })")
     axis_specs = {
-        axis: _axis_spec(axis, spec, specs, params, model_name, fail) for axis, spec in axes_raw.items()
+        axis: check_axis("[grid]", axis, spec, specs, params, model_name, fail) for axis, spec in axes_raw.items()
     }
     table = data.get("analysis", {})
     stability, continuation, seed_axis, solver = _analysis(table, list(axis_specs), fail)
     settings = _analyses(table, continuation, model, fail)
     check_supported(model, _requested(settings), fail)  # the capabilities they need (jaxwalk.walker)
     _check_size(axis_specs, len(model.section_names), max_points, fail, settings)
-    axes = tuple(_axis(axis, spec) for axis, spec in axis_specs.items())
+    axes = tuple(grid_axis(axis, spec) for axis, spec in axis_specs.items())
 
     fixed = {p: spec.default for p, spec in specs.items() if p not in axis_specs}
     fixed.update(params)
@@ -257,60 +258,8 @@ def parse_config(
 # ---------------------------------------------------------------- sections
 
 
-def _axis_spec(axis, spec, specs, params, model_name, fail) -> dict[str, Any]:
-    """The checked axis as written (floats); the values are made later, after the size check."""
-    where = f"[grid] axis '{axis}'"
-    if axis not in specs:
-        raise fail(f"[grid]: {unknown_param(axis, specs, model_name)}")
-    if axis in params:
-        raise fail(f"parameter '{axis}' is both fixed in [params] and swept in [grid]; remove one")
-    if not isinstance(spec, Mapping):
-        raise fail(f"{where} must be a table, {{ start = .., stop = .., num = .. }} or {{ values = [..] }}, got {kind(spec)}")
-    for key in spec:
-        if key not in AXIS_KEYS:
-            raise fail(f"{where}: unknown key '{key}'{_did_you_mean(key, AXIS_KEYS)} (allowed: {', '.join(AXIS_KEYS)})")
-    ps = specs[axis]
-
-    def check(value, what):
-        try:
-            ps.check(value)
-        except ValueError as err:
-            raise fail(f"{where}: {what}: {err}") from None
-        return float(value)
-
-    if "values" in spec:
-        if set(spec) != {"values"}:
-            raise fail(f"{where}: give either values or start/stop/num, not both")
-        values = spec["values"]
-        if not isinstance(values, list):
-            raise fail(f"{where}: values must be an array of numbers, got {kind(values)}")
-        if not values:
-            raise fail(f"{where}: values is empty")
-        values = [check(v, f"value {i}") for i, v in enumerate(values)]
-        if len(set(values)) != len(values):
-            dup = next(v for v in values if values.count(v) > 1)
-            raise fail(f"{where}: value {dup} appears more than once")
-        return {"values": values}
-
-    missing = [k for k in ("start", "stop", "num") if k not in spec]
-    if missing:
-        raise fail(f"{where}: needs start, stop and num, or values (missing: {', '.join(missing)})")
-    num = spec["num"]
-    if isinstance(num, bool) or not isinstance(num, int):
-        raise fail(f"{where}: num must be an integer, got {num!r}")
-    if num < 1:
-        raise fail(f"{where}: num must be at least 1, got {num}")
-    # Bounds are intervals and linspace's endpoints are exactly start and stop,
-    # so checking the two endpoints checks every value of the axis.
-    start, stop = check(spec["start"], "start"), check(spec["stop"], "stop")
-    if num > 1 and start == stop:
-        raise fail(f"{where}: start equals stop with num = {num} (every value the same)")
-    if num == 1 and start != stop:
-        raise fail(f"{where}: num = 1 with start != stop; for one value write values = [{start}]")
-    return {"start": start, "stop": stop, "num": num}
-
-
-def _axis(name: str, spec: dict[str, Any]) -> GridAxis:
+def grid_axis(name: str, spec: dict[str, Any]) -> GridAxis:
+    """The axis of a checked spec (:func:`jaxwalk.configs.check_axis`): its values, read-only float64."""
     if "values" in spec:
         values = np.asarray(spec["values"], dtype=np.float64)
     else:
@@ -335,7 +284,7 @@ def _analysis(table, names, fail) -> tuple[bool, str | None, str | None, dict[st
     for key in table:
         if key not in ANALYSIS_KEYS:
             raise fail(f"[analysis]: unknown key '{key}'{_did_you_mean(key, ANALYSIS_KEYS)} (allowed: {', '.join(ANALYSIS_KEYS)})")
-    gait = Gait.check({k: table[k] for k in Gait.keys() if k in table}, fail)
+    gait = Gait.pick(table, fail)
     continuation = gait.continuation
     if continuation is True:
         continuation = names[0]
