@@ -58,7 +58,7 @@ def profile_loop() -> dict:
     zero, one = jnp.zeros(()), jnp.ones(())
     c = flatstep._Carry(
         t=zero, dt=jnp.full((), flatstep.FIRST_STEP), y=y, phase=jnp.int32(phase), ctx=ctx,
-        g=flatstep._min_guard(MODEL, p, zero, y, phase, ctx), fresh=jnp.asarray(True), f0=jnp.zeros_like(y),
+        g=flatstep._min_guard(MODEL, p, zero, y, phase, ctx, 0.0), offsets=jnp.zeros(len(MODEL.guards)), fresh=jnp.asarray(True), f0=jnp.zeros_like(y),
         pid=(one, one), n_steps=jnp.int32(0), t_start=zero, y_start=y, length=zero,
         status=jnp.asarray(Status.IN_PROGRESS, jnp.int8), n_events=jnp.int32(0), work=zero,
     )  # fmt: skip
@@ -104,9 +104,9 @@ def profile_pieces() -> dict:
     rk = lambda y: solver.step(term, 0.0, 0.05, y, args, (True, jnp.zeros_like(y)), True)[0]
     step = lambda y: solver.step(term, 0.0, 0.05, y, args, (True, jnp.zeros_like(y)), True)
     y1, _, dense, _, _ = jax.jit(step)(y)
-    g0 = flatstep._min_guard(MODEL, p, 0.0, y, phase, ctx)
-    g1 = flatstep._min_guard(MODEL, p, 0.05, y1, phase, ctx)
-    locate = lambda y: flatstep._locate_in_step(MODEL, p, OPTS, solver.interpolation_cls, 0.0, 0.05, g0, jnp.minimum(g1, -1e-3), {**dense, "y0": y}, jnp.int32(phase), ctx)[0]
+    g0 = flatstep._min_guard(MODEL, p, 0.0, y, phase, ctx, 0.0)
+    g1 = flatstep._min_guard(MODEL, p, 0.05, y1, phase, ctx, 0.0)
+    locate = lambda y: flatstep._locate_in_step(MODEL, p, OPTS, solver.interpolation_cls, 0.0, 0.05, g0, jnp.minimum(g1, -1e-3), {**dense, "y0": y}, jnp.int32(phase), ctx, 0.0)[0]
     out = {
         "vector_field_s": _per_lane(lambda y: MODEL.vector_field(0.0, y, args), y),
         "kkt_solve_s": _per_lane(lambda a, b, c, d: mechanics.constrained_accelerations(a, b, c, d, mask), *m0),

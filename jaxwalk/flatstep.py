@@ -44,7 +44,7 @@ import jax
 import jax.numpy as jnp
 
 from jaxwalk.status import Status
-from jaxwalk.stepbase import SolverOptions, StepResult, close_phase
+from jaxwalk.stepbase import SolverOptions, StepResult, close_phase, guard_offsets
 from jaxwalk.walker import Walker
 
 Array = jax.Array
@@ -59,7 +59,8 @@ class _Carry(NamedTuple):
     y: Array  # state at t
     phase: Array  # int32
     ctx: Array
-    g: Array  # smallest guard at (t, y) in this phase
+    g: Array  # smallest guard (offsets added) at (t, y) in this phase
+    offsets: Array  # the phase's guard offsets (stepbase.guard_offsets)
     fresh: Array  # bool: no step taken in this phase yet (FSAL stage invalid)
     f0: Array  # FSAL: vector field at (t, y)
     pid: tuple  # PID controller's two error memories
@@ -78,8 +79,8 @@ def _solver(opts: SolverOptions):
     return eqx.tree_at(lambda s: s.scan_kind, opts.make_solver(), "lax", is_leaf=lambda x: x is None)
 
 
-def _min_guard(model: Walker, params, t, y, phase, ctx):
-    return jnp.min(model.guard_values(t, y, params, phase, ctx))
+def _min_guard(model: Walker, params, t, y, phase, ctx, offsets):
+    return jnp.min(model.guard_values(t, y, params, phase, ctx) + offsets)
 
 
 def locate_event(guard, lower, upper, g_lower, g_upper, iterations: int, tol: float):
@@ -127,13 +128,13 @@ def implicit_root(guard, t_k):
     return t_k - (g - sg(g)) / jnp.where(dg == 0, 1.0, dg)
 
 
-def _locate_in_step(model, params, opts: SolverOptions, interp_cls, t0, t1, g0, g1, dense, phase, ctx):
+def _locate_in_step(model, params, opts: SolverOptions, interp_cls, t0, t1, g0, g1, dense, phase, ctx, offsets):
     """Event time and state inside the accepted step ``[t0, t1]`` (guards ``g0 > 0 >= g1``
     at its ends): ``(t_event, y_event, converged)``."""
 
     def make(p, dense_, ctx_, a, b):
         interp = interp_cls(t0=a, t1=b, **dense_)
-        return interp, lambda t: _min_guard(model, p, t, interp.evaluate(t), phase, ctx_)
+        return interp, lambda t: _min_guard(model, p, t, interp.evaluate(t), phase, ctx_, offsets)
 
     _, frozen = make(sg(params), sg(dense), sg(ctx), sg(t0), sg(t1))
     t_k, converged = locate_event(frozen, sg(t0), sg(t1), sg(g0), sg(g1), opts.event_iterations, opts.event_tol)
@@ -165,15 +166,16 @@ def _attempt(model, params, opts: SolverOptions, solver, controller, c: _Carry, 
     keep, t_next0, t_next1, _, (e1, e2, _), _ = controller.adapt_step_size(
         c.t, t1, c.y, y1, args, y_err, solver.error_order(term), (c.pid[0], c.pid[1], False)
     )
-    g1 = _min_guard(model, params, t1, y1, c.phase, c.ctx)
+    g1 = _min_guard(model, params, t1, y1, c.phase, c.ctx, c.offsets)
     return _Attempt(t1, y1, f1, g1, keep, sg(t_next1 - t_next0), (e1, e2), dense)
 
 
 def _close_phase(model: Walker, params, opts: SolverOptions, c: _Carry, go_on: _Carry, t_ev, y_ev, result) -> _Carry:
     """A lane whose phase ended at ``(t_ev, y_ev)`` with diffrax ``result``: the
     reset, the statuses, and a fresh start of the next phase from ``go_on``."""
-    end = close_phase(model, params, t_ev, y_ev, result, c.phase, c.ctx, c.n_events, opts)
-    g = _min_guard(model, params, end.t_event, end.y_next, end.phase_next, end.ctx_next)
+    end = close_phase(model, params, t_ev, y_ev, result, c.phase, c.ctx, c.n_events, opts, c.offsets)
+    offsets = guard_offsets(model, params, end.t_event, end.y_next, end.phase_next, end.ctx_next, opts)
+    g = _min_guard(model, params, end.t_event, end.y_next, end.phase_next, end.ctx_next, offsets)
     one = jnp.ones((), c.t.dtype)
     return go_on._replace(
         t=end.t_event,
@@ -182,6 +184,7 @@ def _close_phase(model: Walker, params, opts: SolverOptions, c: _Carry, go_on: _
         phase=end.phase_next,
         ctx=end.ctx_next,
         g=g,
+        offsets=offsets,
         fresh=jnp.asarray(True),
         pid=(one, one),
         n_steps=jnp.zeros_like(c.n_steps),
@@ -209,7 +212,7 @@ def _advance(model: Walker, params, opts: SolverOptions, c: _Carry) -> _Carry:
 
     def locate():
         return _locate_in_step(
-            model, params, opts, solver.interpolation_cls, c.t, a.t1, c.g, a.g1, a.dense, c.phase, c.ctx
+            model, params, opts, solver.interpolation_cls, c.t, a.t1, c.g, a.g1, a.dense, c.phase, c.ctx, c.offsets
         )
 
     t_ev, y_ev, located = jax.lax.cond(eqxi.unvmap_any(crossed), locate, lambda: (a.t1, a.y1, jnp.asarray(True)))
@@ -235,6 +238,7 @@ def _advance(model: Walker, params, opts: SolverOptions, c: _Carry) -> _Carry:
         phase=c.phase,
         ctx=c.ctx,
         g=jnp.where(moved, a.g1, c.g),
+        offsets=c.offsets,
         fresh=c.fresh & ~moved,
         f0=jnp.where(moved, a.f1, c.f0),
         pid=jax.tree_util.tree_map(lambda new, old: jnp.where(retry, old, new), a.pid, c.pid),
@@ -268,13 +272,15 @@ def run_step_flat(model: Walker, params, y0: Array, phase0: Array, ctx0: Array, 
     phase0 = jnp.asarray(phase0, jnp.int32)
     zero = jnp.zeros((), dtype)
     one = jnp.ones((), dtype)
+    offsets0 = guard_offsets(model, params, zero, y0, phase0, ctx0, opts)
     carry0 = _Carry(
         t=zero,
         dt=jnp.full((), FIRST_STEP, dtype),
         y=y0,
         phase=phase0,
         ctx=ctx0,
-        g=_min_guard(model, params, zero, y0, phase0, ctx0),
+        g=_min_guard(model, params, zero, y0, phase0, ctx0, offsets0),
+        offsets=offsets0,
         fresh=jnp.asarray(True),
         f0=jnp.zeros_like(y0),
         pid=(one, one),

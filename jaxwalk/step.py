@@ -23,7 +23,7 @@ import jax.numpy as jnp
 from jaxwalk.flatstep import run_step_flat
 from jaxwalk.rootfind import BracketedNewton
 from jaxwalk.status import Status
-from jaxwalk.stepbase import PhaseEnd, SolverOptions, StepResult, close_phase  # noqa: F401 (re-exported)
+from jaxwalk.stepbase import PhaseEnd, SolverOptions, StepResult, close_phase, guard_offsets  # noqa: F401 (re-exported)
 from jaxwalk.walker import Walker
 
 Array = jax.Array
@@ -36,9 +36,10 @@ def solve_phase(model: Walker, params, y, phase, ctx, t0, opts: SolverOptions, d
     its interpolation, which the recorder of ``jaxwalk simulate`` samples).
     """
     term = diffrax.ODETerm(model.vector_field)
+    offsets = guard_offsets(model, params, t0, y, phase, ctx, opts)
 
     def smallest_guard(t, y, args, **kwargs):
-        return jnp.min(model.guard_values(t, y, *args))
+        return jnp.min(model.guard_values(t, y, *args) + offsets)
 
     event = diffrax.Event(
         smallest_guard,
@@ -84,12 +85,14 @@ def end_phase(model: Walker, params, t0, y0, phase, ctx, solved, n_events, opts:
     # while it is the smallest it hides every other guard: treat it as an
     # event at the phase's start (a swing foot landing behind the hip after a
     # large drop, a knee that must already pull). The margin keeps a guard
-    # that ended the previous phase (zero to root-finding accuracy) quiet.
+    # that ended the previous phase (zero to root-finding accuracy) quiet; the
+    # solve watched it lifted by guard_offsets, so it hid no other guard.
     at_start = jnp.min(model.guard_values(t0, y0, params, phase, ctx)) < -opts.start_guard_margin
     t_event = jnp.where(at_start, t0, t_event)
     y_event = jnp.where(at_start, y0, y_event)
     result = diffrax.RESULTS.where(at_start, diffrax.RESULTS.event_occurred, result)
-    return close_phase(model, params, t_event, y_event, result, phase, ctx, n_events, opts)
+    offsets = guard_offsets(model, params, t0, y0, phase, ctx, opts)
+    return close_phase(model, params, t_event, y_event, result, phase, ctx, n_events, opts, offsets)
 
 
 class _PhaseLoop(NamedTuple):

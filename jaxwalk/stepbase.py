@@ -33,7 +33,10 @@ class SolverOptions:
         phase_time_limit: longest phase, in units of the model's ``time_scale``,
             before ``TIMEOUT``.
         start_guard_margin: a guard below ``-start_guard_margin`` when a phase
-            starts is an event at once (see :func:`run_step`).
+            starts is an event at once (see :func:`run_step`); one in
+            ``[-start_guard_margin, 0]`` (the guard whose event just ended the
+            previous phase, zero to root-finding accuracy) is lifted by twice
+            the margin for the phase (:func:`guard_offsets`).
         solver: ``"dopri8"`` (default; 7th-order dense output keeps event times
             accurate at loose steps) or ``"tsit5"``.
         engine: ``"nested"`` (one ``diffeqsolve`` per phase, :mod:`jaxwalk.step`)
@@ -124,15 +127,37 @@ class PhaseEnd(NamedTuple):
     n_events: Array
 
 
-def close_phase(model: Walker, params, t_event, y_event, result, phase, ctx, n_events, opts: SolverOptions) -> PhaseEnd:
+def guard_offsets(model: Walker, params, t0, y0, phase, ctx, opts: SolverOptions) -> Array:
+    """``(n_guards,)`` added to the guards while the phase started at ``(t0, y0)`` runs.
+
+    A phase watches the smallest guard for a crossing from positive to
+    non-positive. A guard that starts at zero's rounding error below zero (the
+    one whose event just ended the last phase: -6e-17 was seen) would be that
+    smallest guard, already non-positive, and hide every other guard's crossing
+    until it rose: a swing-foot extremum 0.01 later went unseen, the guard stayed
+    negative, and the walker fell through the floor until the phase's time limit
+    (``TIMEOUT`` at 180 points of a flat-foot map). Lifting such a guard by twice
+    ``start_guard_margin`` starts every guard positive; it can fire again in the
+    phase once it falls below ``-2 margin``. Guards already below ``-margin`` are
+    left as they are: they are the events at the phase's start.
+    """
+    g0 = jax.lax.stop_gradient(model.guard_values(t0, y0, params, phase, ctx))
+    just_fired = (g0 <= 0.0) & (g0 >= -opts.start_guard_margin)
+    return jnp.where(just_fired, 2.0 * opts.start_guard_margin, 0.0).astype(g0.dtype)
+
+
+def close_phase(
+    model: Walker, params, t_event, y_event, result, phase, ctx, n_events, opts: SolverOptions, offsets=0.0
+) -> PhaseEnd:
     """The model's reset and the status rules for a phase that ended at ``(t_event, y_event)``.
 
     ``result`` is diffrax's: ``event_occurred`` (the reset follows), ``successful``
     (the phase's time limit: ``TIMEOUT``) or any other (``SOLVER_FAILED``). Shared by
-    :func:`end_phase` and the flat engine (:mod:`jaxwalk.flatstep`).
+    :func:`end_phase` and the flat engine (:mod:`jaxwalk.flatstep`). ``offsets``:
+    the phase's :func:`guard_offsets`, so the guard named is the one that crossed.
     """
     in_progress = jnp.asarray(Status.IN_PROGRESS, jnp.int8)
-    guards = model.guard_values(t_event, y_event, params, phase, ctx)
+    guards = model.guard_values(t_event, y_event, params, phase, ctx) + offsets
     which = jnp.argmin(guards)
     tr = model.on_event(which, t_event, y_event, params, phase, ctx)
     step_status = jnp.where(tr.step_done & (tr.status == in_progress), jnp.int8(Status.OK), tr.status)

@@ -411,6 +411,21 @@ def _lowest_point(y, params, ctx):
     return jnp.min(cl.heights(y[:6], y[6:], params, ctx, ev._ground_under)[0])
 
 
+def test_a_guard_that_just_fired_hides_no_other_crossing(params, step_fn):
+    """Regression (stepbase.guard_offsets): at l_f = 0.13 a locked-swing phase starts
+    with the heel-extremum guard at -6e-17 (its event just ended the last phase) and
+    the toe's extremum 0.01 later. Watched as the smallest guard, the heel's
+    rounding error hid the toe's crossing; the toe guard then stayed negative, no
+    other guard could fire, and the walker fell through the floor until the phase's
+    time limit (``timeout``, 180 points of a 21 x 46 (l_f, r) map). It is a normal
+    step: the seven phases and both feet's extrema, 11 events."""
+    p = dict(params, l_f=jnp.asarray(0.13))
+    v = jnp.array([0.18786143861484147, -0.2143837788574308])  # the gait at l_f = 0.14
+    _, res = step_fn(v, p)
+    assert int(res.status) == Status.OK
+    assert int(res.n_events) == 11 and 3.0 < float(res.time) < 4.0
+
+
 def test_a_low_friction_coefficient_slips(params, step_fn, fixed_point):
     _, res = step_fn(fixed_point[0], _with(params, mu=0.05))
     assert int(res.status) == Status.SLIPPING

@@ -114,3 +114,22 @@ def test_unknown_engine_is_an_error():
     p = SIMPLEST.default_params()
     with pytest.raises(ValueError, match="engine"):
         step_map(SIMPLEST, SIMPLEST.initial_guess(p), p, SolverOptions(engine="fast"))
+
+
+def test_guard_offsets_lift_only_the_guards_that_just_fired():
+    """A guard in [-margin, 0] at a phase's start (the one whose event just ended
+    the last phase) is lifted by twice the margin, so the smallest guard starts
+    positive and every other guard's crossing is seen; a guard below -margin is
+    an event at the start and is left alone, and a positive one is not moved."""
+    from jaxwalk.stepbase import SolverOptions, guard_offsets
+
+    class Guards:
+        def guard_values(self, t, y, params, phase, ctx):
+            return jnp.array([0.5, -6e-17, 0.0, -1e-3, -5e-10])
+
+    opts = SolverOptions()
+    off = np.asarray(guard_offsets(Guards(), None, 0.0, None, 0, None, opts))
+    m = opts.start_guard_margin
+    np.testing.assert_array_equal(off, [0.0, 2 * m, 2 * m, 0.0, 2 * m])
+    lifted = np.array([0.5, -6e-17, 0.0, -1e-3, -5e-10]) + off
+    assert (np.delete(lifted, 3) > 0).all() and lifted[3] < -m
