@@ -419,7 +419,7 @@ def test_a_guard_that_just_fired_hides_no_other_crossing(params, step_fn):
     other guard could fire, and the walker fell through the floor until the phase's
     time limit (``timeout``, 180 points of a 21 x 46 (l_f, r) map). It is a normal
     step: the seven phases and both feet's extrema, 11 events."""
-    p = dict(params, l_f=jnp.asarray(0.13))
+    p = dict(params, l_f=jnp.asarray(0.13, jnp.float64))  # not weak-typed: the same program
     v = jnp.array([0.18786143861484147, -0.2143837788574308])  # the gait at l_f = 0.14
     _, res = step_fn(v, p)
     assert int(res.status) == Status.OK
