@@ -105,7 +105,8 @@ def write_table(config, model, store: Path, options, params, progress: bool = Tr
     import zarr
     from tqdm.auto import tqdm
 
-    with tqdm(total=0, unit="round", desc="locating bifurcations", disable=not progress, file=sys.stderr) as bar:
+    # delay: the bar is drawn once locate() has set its total (the rounds planned).
+    with tqdm(total=0, unit="round", desc="locating bifurcations", disable=not progress, file=sys.stderr, delay=1.0) as bar:
         found = table(config, model, store, options, params, bar)
     # xarray's append sets the group's attributes to the appended dataset's:
     # keep the sweep's global attributes (its config, units, history, ...).
