@@ -345,6 +345,19 @@ def test_lambda_max_scale_gives_the_stable_range_half_the_colours():
     assert heatmap_figure(synthetic(GRID_2D, lam=(0.3, 0.9)), "lambda_max", choose_layout(ds, "heatmap")).axes[0].collections[0].norm.__class__.__name__ == "Normalize"
 
 
+def test_two_slope_colour_bar_ticks_stay_on_the_bar():
+    """A lambda_max range whose end rounds outward (1.7219536 -> 1.722) gave the
+    two-slope colour bar a tick past its end, and matplotlib then drew every
+    tick at the bar's foot and the bar blank (the flat-foot loci map)."""
+    ds = synthetic(GRID_2D, lam=(0.5726556, 1.6719536))  # max 1.7219536 (+0.05 along m_h)
+    assert float(ds.lambda_max.max()) == pytest.approx(1.7219536)
+    fig = heatmap_figure(ds, "lambda_max", choose_layout(ds, "heatmap"))
+    (bar,) = [a for a in fig.axes if a.get_label() == "<colorbar>"]
+    low, high = bar.get_ylim()
+    ticks = bar.get_yticks()
+    assert len(ticks) >= 5 and 1.0 in ticks and ((ticks >= low) & (ticks <= high)).all(), (ticks, low, high)
+
+
 def test_title_names_the_fixed_parameters():
     ds = synthetic(GRID_1D)
     ds.attrs["fixed_parameters"] = '{"m": 5.0, "m_h": 10.0, "a": 0.6}'  # compass defaults: m 5, m_h 10, a 0.5

@@ -99,7 +99,7 @@ def heatmap_figure(ds: xr.Dataset, name: str, layout: Layout):
     if finite.size:
         bar = fig.colorbar(mesh, ax=axes[: len(views)].tolist(), label=bar_label, shrink=0.9 if single else 0.7)
         if isinstance(norm, TwoSlopeNorm):
-            bar.set_ticks(sorted({round(float(t), 3) for t in np.linspace(norm.vmin, 1.0, 4)} | {round(float(t), 3) for t in np.linspace(1.0, norm.vmax, 4)}))
+            bar.set_ticks(_two_slope_ticks(norm.vmin, norm.vmax))
     fig.suptitle(figure_title(ds, name, layout.fixed), fontsize="medium")
     handles = _legend_handles(ds, counts, drew_contour, drew_unstable) + loci.legend_handles(kinds, drew_unlocated)
     if not finite.size:
@@ -107,6 +107,14 @@ def heatmap_figure(ds: xr.Dataset, name: str, layout: Layout):
     if handles:
         fig.legend(handles=handles, loc="outside lower center", ncols=min(len(handles), 3), fontsize="small", frameon=False)
     return fig
+
+
+def _two_slope_ticks(vmin: float, vmax: float) -> list[float]:
+    """Four ticks on each side of 1, rounded to 3 decimals and kept inside
+    ``[vmin, vmax]``: a tick past either end (1.722 on a scale ending at
+    1.72195) sent every tick of the two-slope colour bar to its foot."""
+    ticks = {round(float(t), 3) for t in np.linspace(vmin, 1.0, 4)} | {round(float(t), 3) for t in np.linspace(1.0, vmax, 4)}
+    return sorted(t for t in ticks if vmin <= t <= vmax)
 
 
 def _panel(ax, view: xr.Dataset, name: str, layout: Layout, norm, counts: dict[int, int]):
