@@ -33,14 +33,13 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Array, Complex, Float, Int8, Int32
 
 from jaxwalk import mechanics, program_cache
 from jaxwalk.gait import Gait, NewtonOptions, value_and_jacfwd
 from jaxwalk.status import Status
 from jaxwalk.step import SolverOptions, step_map
 from jaxwalk.walker import Walker
-
-Array = jax.Array
 
 
 @dataclasses.dataclass(frozen=True)
@@ -97,13 +96,13 @@ class Attractor(NamedTuple):
         steps_walked: steps of the settling walk (0 where the gait is stable).
     """
 
-    status: Array
-    period: Array
-    points: Array
-    multipliers: Array
-    lambda_max: Array
-    rate: Array
-    steps_walked: Array
+    status: Int8[Array, "*batch"]
+    period: Int32[Array, "*batch"]
+    points: Float[Array, "*batch max_period n_v"]
+    multipliers: Complex[Array, "*batch n_v"]
+    lambda_max: Float[Array, "*batch"]
+    rate: Float[Array, "*batch"]
+    steps_walked: Int32[Array, "*batch"]
 
 
 def cycle_map(model: Walker, params, v: Array, k: Array, max_period: int, solver: SolverOptions):

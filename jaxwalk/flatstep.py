@@ -42,12 +42,12 @@ import equinox as eqx
 import equinox.internal as eqxi
 import jax
 import jax.numpy as jnp
+from jaxtyping import Array, ArrayLike, Float, Int32
 
 from jaxwalk.status import Status
 from jaxwalk.stepbase import SolverOptions, StepResult, close_phase, guard_offsets
-from jaxwalk.walker import Walker
+from jaxwalk.walker import Params, Walker
 
-Array = jax.Array
 sg = jax.lax.stop_gradient
 
 
@@ -266,7 +266,8 @@ def _advance(model: Walker, params, opts: SolverOptions, c: _Carry) -> _Carry:
 FIRST_STEP = 0.01
 
 
-def run_step_flat(model: Walker, params, y0: Array, phase0: Array, ctx0: Array, opts: SolverOptions = SolverOptions()) -> StepResult:
+def run_step_flat(model: Walker, params: Params, y0: Float[Array, "2*n_q"], phase0: Int32[ArrayLike, ""],
+                  ctx0: Float[Array, "n_ctx"], opts: SolverOptions = SolverOptions()) -> StepResult:
     """One step from a full state, as :func:`jaxwalk.step.run_step` (same arguments and result)."""
     dtype = y0.dtype
     phase0 = jnp.asarray(phase0, jnp.int32)

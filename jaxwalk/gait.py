@@ -19,13 +19,12 @@ from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
+from jaxtyping import Array, Complex, Float, Int8, Int32
 
 from jaxwalk import mechanics
 from jaxwalk.status import Status
 from jaxwalk.step import SolverOptions, step_map
-from jaxwalk.walker import Walker
-
-Array = jax.Array
+from jaxwalk.walker import Params, Walker
 
 
 @dataclasses.dataclass(frozen=True)
@@ -67,17 +66,17 @@ class Gait(NamedTuple):
             whose energy comes from gravity: ``sin(gamma)`` per unit weight and distance).
     """
 
-    v: Array
-    jacobian: Array
-    eigenvalues: Array
-    lambda_max: Array
-    period: Array
-    step_length: Array
-    speed: Array
-    status: Array
-    iterations: Array
-    work: Array
-    cost_of_transport: Array
+    v: Float[Array, "*batch n_v"]
+    jacobian: Float[Array, "*batch n_v n_v"]
+    eigenvalues: Complex[Array, "*batch n_v"]
+    lambda_max: Float[Array, "*batch"]
+    period: Float[Array, "*batch"]
+    step_length: Float[Array, "*batch"]
+    speed: Float[Array, "*batch"]
+    status: Int8[Array, "*batch"]
+    iterations: Int32[Array, "*batch"]
+    work: Float[Array, "*batch"]
+    cost_of_transport: Float[Array, "*batch"]
 
 
 def step_residual(model: Walker, params, opts: SolverOptions):
@@ -112,8 +111,8 @@ def _stability(jacobian: Array) -> tuple[Array, Array]:
 
 def find_gait(
     model: Walker,
-    params,
-    v0: Array,
+    params: Params,
+    v0: Float[Array, "n_v"],
     solver: SolverOptions = SolverOptions(),
     newton: NewtonOptions = NewtonOptions(),
 ) -> Gait:
@@ -201,6 +200,7 @@ def _gait(model: Walker, params, out: dict) -> Gait:
     )
 
 
-def step_jacobian(model: Walker, v: Array, params, solver: SolverOptions = SolverOptions()) -> Array:
+def step_jacobian(model: Walker, v: Float[Array, "n_v"], params: Params,
+                  solver: SolverOptions = SolverOptions()) -> Float[Array, "n_v n_v"]:
     """``J = df/dv`` at ``v`` by forward-mode autodiff, ``(n_v, n_v)``."""
     return jax.jacfwd(lambda v_: step_map(model, v_, params, solver)[0])(v)

@@ -19,14 +19,13 @@ from typing import NamedTuple
 import diffrax
 import jax
 import jax.numpy as jnp
+from jaxtyping import Array, ArrayLike, Float, Int32
 
 from jaxwalk.flatstep import run_step_flat
 from jaxwalk.rootfind import BracketedNewton
 from jaxwalk.status import Status
 from jaxwalk.stepbase import PhaseEnd, SolverOptions, StepResult, close_phase, guard_offsets  # noqa: F401 (re-exported)
-from jaxwalk.walker import Walker
-
-Array = jax.Array
+from jaxwalk.walker import Params, Walker
 
 
 def solve_phase(model: Walker, params, y, phase, ctx, t0, opts: SolverOptions, dense: bool = False):
@@ -108,7 +107,8 @@ class _PhaseLoop(NamedTuple):
     work: Array  # actuator work so far (model energy units)
 
 
-def run_step(model: Walker, params, y0: Array, phase0: Array, ctx0: Array, opts: SolverOptions = SolverOptions()) -> StepResult:
+def run_step(model: Walker, params: Params, y0: Float[Array, "2*n_q"], phase0: Int32[ArrayLike, ""],
+             ctx0: Float[Array, "n_ctx"], opts: SolverOptions = SolverOptions()) -> StepResult:
     """Run one step from a full state. Pure; ``jit``/``vmap``/``jacfwd`` ready.
 
     Args:
@@ -153,7 +153,8 @@ def run_step(model: Walker, params, y0: Array, phase0: Array, ctx0: Array, opts:
     return StepResult(c.y, c.ctx, c.phase, c.t, c.length, c.status, c.n_events, c.work)
 
 
-def step_map(model: Walker, v: Array, params, opts: SolverOptions = SolverOptions(), ground_drop: Array | float = 0.0):
+def step_map(model: Walker, v: Float[Array, "n_v"], params: Params, opts: SolverOptions = SolverOptions(),
+             ground_drop: Float[ArrayLike, ""] = 0.0) -> tuple[Float[Array, "n_v"], StepResult]:
     """The Poincaré map on section coordinates: ``v_next, StepResult``.
 
     Args:
