@@ -71,6 +71,7 @@ class _Carry(NamedTuple):
     status: Array
     n_events: Array
     work: Array
+    ode_steps: Array  # solver steps (accepted or rejected) in the step: the phases' n_steps summed
 
 
 def _solver(opts: SolverOptions):
@@ -249,6 +250,7 @@ def _advance(model: Walker, params, opts: SolverOptions, c: _Carry) -> _Carry:
         status=c.status,
         n_events=c.n_events,
         work=c.work,
+        ode_steps=c.ode_steps + 1,
     )
 
     close = lambda: _close_phase(model, params, opts, c, go_on, t_ev, y_ev, result)
@@ -292,7 +294,8 @@ def run_step_flat(model: Walker, params: Params, y0: Float[Array, "2*n_q"], phas
         status=jnp.asarray(Status.IN_PROGRESS, jnp.int8),
         n_events=jnp.zeros((), jnp.int32),
         work=zero,
+        ode_steps=jnp.zeros((), jnp.int32),
     )
     running = lambda c: c.status == Status.IN_PROGRESS
     c = jax.lax.while_loop(running, lambda c: _advance(model, params, opts, c), carry0)
-    return StepResult(c.y, c.ctx, c.phase, c.t, c.length, c.status, c.n_events, c.work)
+    return StepResult(c.y, c.ctx, c.phase, c.t, c.length, c.status, c.n_events, c.work, c.ode_steps)

@@ -84,6 +84,8 @@ class StepResult(NamedTuple):
         work: work done by the walker's actuators over the step (model energy
             units; 0 for passive walkers), summed phase by phase with
             :meth:`~jaxwalk.walker.Walker.actuator_work`.
+        ode_steps: ODE solver steps, accepted and rejected, summed over the
+            step's phases (what the step cost; :class:`jaxwalk.gait.GaitStats`).
     """
 
     y: Float[Array, "*batch 2*n_q"]
@@ -94,6 +96,7 @@ class StepResult(NamedTuple):
     status: Int8[Array, "*batch"]
     n_events: Int32[Array, "*batch"]
     work: Float[Array, "*batch"]
+    ode_steps: Int32[Array, "*batch"]
 
 
 class PhaseEnd(NamedTuple):
