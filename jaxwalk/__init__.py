@@ -53,6 +53,7 @@ __version__ = "0.1.0"
 from jaxwalk.api import open_dataset as open_dataset  # noqa: E402
 from jaxwalk.gait import (  # noqa: E402
     Gait as Gait,
+    GaitStats as GaitStats,
     NewtonOptions as NewtonOptions,
     find_gait as find_gait,
     step_jacobian as step_jacobian,

@@ -33,14 +33,13 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Array, Complex, Float, Int8, Int32
 
 from jaxwalk import mechanics, program_cache
-from jaxwalk.gait import Gait, NewtonOptions, value_and_jacfwd
+from jaxwalk.gait import Gait, GaitStats, NewtonOptions, value_and_jacfwd
 from jaxwalk.status import Status
 from jaxwalk.step import SolverOptions, step_map
 from jaxwalk.walker import Walker
-
-Array = jax.Array
 
 
 @dataclasses.dataclass(frozen=True)
@@ -97,13 +96,13 @@ class Attractor(NamedTuple):
         steps_walked: steps of the settling walk (0 where the gait is stable).
     """
 
-    status: Array
-    period: Array
-    points: Array
-    multipliers: Array
-    lambda_max: Array
-    rate: Array
-    steps_walked: Array
+    status: Int8[Array, "*batch"]
+    period: Int32[Array, "*batch"]
+    points: Float[Array, "*batch max_period n_v"]
+    multipliers: Complex[Array, "*batch n_v"]
+    lambda_max: Float[Array, "*batch"]
+    rate: Float[Array, "*batch"]
+    steps_walked: Int32[Array, "*batch"]
 
 
 def cycle_map(model: Walker, params, v: Array, k: Array, max_period: int, solver: SolverOptions):
@@ -410,7 +409,8 @@ def _attractor_program(model: Walker, settings: AttractorOptions, solver: Solver
         p = dict(p)
         gait = Gait(v=p.pop("__v__"), jacobian=p.pop("__jac__"), eigenvalues=p.pop("__eig__"), lambda_max=p.pop("__lam__"),
                     period=jnp.nan, step_length=jnp.nan, speed=jnp.nan, status=jnp.int8(Status.OK),
-                    iterations=jnp.zeros((), jnp.int32), work=jnp.nan, cost_of_transport=jnp.nan)
+                    iterations=jnp.zeros((), jnp.int32), work=jnp.nan, cost_of_transport=jnp.nan,
+                    stats=GaitStats(*(jnp.zeros((), jnp.int32),) * 3))
         return find_attractor(model, p, gait, settings, solver, newton)
 
     program = jax.jit(lambda rows: _in_sub_batches(one, dict(rows), model.lockstep_batch))

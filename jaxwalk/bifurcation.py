@@ -37,6 +37,7 @@ from typing import Mapping, NamedTuple
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Complex, Float, Int, Int8
 
 from jaxwalk.attractor import AttractorOptions, find_cycle, minimal_period, spectrum
 from jaxwalk.batching import in_sub_batches, run_chunks, sub_batch_size
@@ -97,14 +98,14 @@ class Bifurcations(NamedTuple):
         beyond: int8 status of the failure beyond an edge (``OK`` for sign changes).
     """
 
-    kind: np.ndarray
-    parameter: np.ndarray
-    line: np.ndarray
-    period: np.ndarray
-    status: np.ndarray
-    v: np.ndarray
-    multipliers: np.ndarray
-    beyond: np.ndarray
+    kind: Int8[np.ndarray, "rows"]
+    parameter: Float[np.ndarray, "rows"]
+    line: Int[np.ndarray, "rows"]
+    period: Int[np.ndarray, "rows"]
+    status: Int8[np.ndarray, "rows"]
+    v: Float[np.ndarray, "rows n_v"]
+    multipliers: Complex[np.ndarray, "rows n_v"]
+    beyond: Int8[np.ndarray, "rows"]
 
 
 def indicators(mu: np.ndarray) -> np.ndarray:

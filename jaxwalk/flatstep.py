@@ -42,12 +42,12 @@ import equinox as eqx
 import equinox.internal as eqxi
 import jax
 import jax.numpy as jnp
+from jaxtyping import Array, ArrayLike, Float, Int32
 
 from jaxwalk.status import Status
 from jaxwalk.stepbase import SolverOptions, StepResult, close_phase, guard_offsets
-from jaxwalk.walker import Walker
+from jaxwalk.walker import Params, Walker
 
-Array = jax.Array
 sg = jax.lax.stop_gradient
 
 
@@ -71,6 +71,7 @@ class _Carry(NamedTuple):
     status: Array
     n_events: Array
     work: Array
+    ode_steps: Array  # solver steps (accepted or rejected) in the step: the phases' n_steps summed
 
 
 def _solver(opts: SolverOptions):
@@ -249,6 +250,7 @@ def _advance(model: Walker, params, opts: SolverOptions, c: _Carry) -> _Carry:
         status=c.status,
         n_events=c.n_events,
         work=c.work,
+        ode_steps=c.ode_steps + 1,
     )
 
     close = lambda: _close_phase(model, params, opts, c, go_on, t_ev, y_ev, result)
@@ -266,7 +268,8 @@ def _advance(model: Walker, params, opts: SolverOptions, c: _Carry) -> _Carry:
 FIRST_STEP = 0.01
 
 
-def run_step_flat(model: Walker, params, y0: Array, phase0: Array, ctx0: Array, opts: SolverOptions = SolverOptions()) -> StepResult:
+def run_step_flat(model: Walker, params: Params, y0: Float[Array, "2*n_q"], phase0: Int32[ArrayLike, ""],
+                  ctx0: Float[Array, "n_ctx"], opts: SolverOptions = SolverOptions()) -> StepResult:
     """One step from a full state, as :func:`jaxwalk.step.run_step` (same arguments and result)."""
     dtype = y0.dtype
     phase0 = jnp.asarray(phase0, jnp.int32)
@@ -291,7 +294,8 @@ def run_step_flat(model: Walker, params, y0: Array, phase0: Array, ctx0: Array, 
         status=jnp.asarray(Status.IN_PROGRESS, jnp.int8),
         n_events=jnp.zeros((), jnp.int32),
         work=zero,
+        ode_steps=jnp.zeros((), jnp.int32),
     )
     running = lambda c: c.status == Status.IN_PROGRESS
     c = jax.lax.while_loop(running, lambda c: _advance(model, params, opts, c), carry0)
-    return StepResult(c.y, c.ctx, c.phase, c.t, c.length, c.status, c.n_events, c.work)
+    return StepResult(c.y, c.ctx, c.phase, c.t, c.length, c.status, c.n_events, c.work, c.ode_steps)

@@ -19,13 +19,12 @@ from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
+from jaxtyping import Array, Complex, Float, Int8, Int32
 
 from jaxwalk import mechanics
 from jaxwalk.status import Status
 from jaxwalk.step import SolverOptions, step_map
-from jaxwalk.walker import Walker
-
-Array = jax.Array
+from jaxwalk.walker import Params, Walker
 
 
 @dataclasses.dataclass(frozen=True)
@@ -48,6 +47,22 @@ class NewtonOptions:
     max_update: float = 0.2
 
 
+class GaitStats(NamedTuple):
+    """What finding a gait cost (batch shape in front under vmap); kept where the search failed.
+
+    Attributes:
+        newton_iterations: Newton iterations used (as :attr:`Gait.iterations`).
+        events: events in the last step evaluated (the step from the fixed point
+            when the search converged): :attr:`~jaxwalk.stepbase.StepResult.n_events`.
+        ode_steps: ODE solver steps, accepted and rejected, over every phase of the
+            last step evaluated: :attr:`~jaxwalk.stepbase.StepResult.ode_steps`.
+    """
+
+    newton_iterations: Int32[Array, "*batch"]
+    events: Int32[Array, "*batch"]
+    ode_steps: Int32[Array, "*batch"]
+
+
 class Gait(NamedTuple):
     """A periodic gait and its local stability (batch shape in front under vmap).
 
@@ -65,19 +80,21 @@ class Gait(NamedTuple):
         cost_of_transport: ``work / (weight * step_length)``, the actuators'
             mechanical cost of transport (dimensionless; 0 for passive walkers,
             whose energy comes from gravity: ``sin(gamma)`` per unit weight and distance).
+        stats: :class:`GaitStats`, what the search cost.
     """
 
-    v: Array
-    jacobian: Array
-    eigenvalues: Array
-    lambda_max: Array
-    period: Array
-    step_length: Array
-    speed: Array
-    status: Array
-    iterations: Array
-    work: Array
-    cost_of_transport: Array
+    v: Float[Array, "*batch n_v"]
+    jacobian: Float[Array, "*batch n_v n_v"]
+    eigenvalues: Complex[Array, "*batch n_v"]
+    lambda_max: Float[Array, "*batch"]
+    period: Float[Array, "*batch"]
+    step_length: Float[Array, "*batch"]
+    speed: Float[Array, "*batch"]
+    status: Int8[Array, "*batch"]
+    iterations: Int32[Array, "*batch"]
+    work: Float[Array, "*batch"]
+    cost_of_transport: Float[Array, "*batch"]
+    stats: GaitStats
 
 
 def step_residual(model: Walker, params, opts: SolverOptions):
@@ -112,8 +129,8 @@ def _stability(jacobian: Array) -> tuple[Array, Array]:
 
 def find_gait(
     model: Walker,
-    params,
-    v0: Array,
+    params: Params,
+    v0: Float[Array, "n_v"],
     solver: SolverOptions = SolverOptions(),
     newton: NewtonOptions = NewtonOptions(),
 ) -> Gait:
@@ -127,32 +144,44 @@ def find_gait(
     running = jnp.int8(Status.IN_PROGRESS)
     n_v, dtype = v0.shape[0], v0.dtype
     nan = jnp.full((), jnp.nan, dtype)
-    carry0 = {
-        "v": v0,
-        "k": jnp.zeros((), jnp.int32),
-        "status": running,
-        "converged": jnp.asarray(False),
-        "jac": jnp.full((n_v, n_v), jnp.nan, dtype),
-        "period": nan,
-        "length": nan,
-        "work": nan,
-    }
+    zero = jnp.zeros((), jnp.int32)
+    carry0 = _Newton(v0, zero, running, jnp.asarray(False), jnp.full((n_v, n_v), jnp.nan, dtype), nan, nan, nan, zero, zero)
     body = _newton_iteration(step_residual(model, params, solver), newton, jnp.eye(n_v, dtype=dtype))
-    out = jax.lax.while_loop(lambda carry: carry["status"] == running, body, carry0)
-    return _gait(model, params, out)
+
+    def cond(c: _Newton):
+        # The status ends the loop (NO_CONVERGENCE once k reaches max_iter, and
+        # k stops counting after convergence), so the bound never decides alone.
+        return (c.status == running) & (c.k <= newton.max_iter)
+
+    return _gait(model, params, jax.lax.while_loop(cond, body, carry0))
+
+
+class _Newton(NamedTuple):
+    """The carry of :func:`find_gait`'s loop (one configuration)."""
+
+    v: Array  # (n_v,) current iterate
+    k: Array  # int32, iterations counted
+    status: Array  # int8; IN_PROGRESS while the search goes on
+    converged: Array  # bool: the last update was below tol (this evaluation is at the fixed point)
+    jac: Array  # (n_v, n_v) df/dv at the last evaluation
+    period: Array  # the last evaluated step's duration, length and actuator work
+    length: Array
+    work: Array
+    events: Array  # int32, events in the last evaluated step
+    ode_steps: Array  # int32, its ODE solver steps
 
 
 def _newton_iteration(residual, newton: NewtonOptions, eye: Array):
-    """The body of :func:`find_gait`'s loop: one evaluation and update, over a dict carry."""
+    """The body of :func:`find_gait`'s loop: one evaluation and update."""
     running = jnp.int8(Status.IN_PROGRESS)
 
-    def body(carry):
+    def body(carry: _Newton) -> _Newton:
         # One evaluation per iteration. Once an update was below tol, the next
         # iteration evaluates at the converged point and only records it: J,
         # period and length are reported at the fixed point itself, not at the
         # last iterate (the step map is strongly curved near the separatrix,
         # second derivatives ~1e3 for the simplest walker, so 1e-8 matters for J).
-        v, k, converged = carry["v"], carry["k"], carry["converged"]
+        v, k, converged = carry.v, carry.k, carry.converged
         r, jac_r, res = value_and_jacfwd(residual, v)
         update = -mechanics.solve(jac_r, r)  # unrolled for small n_v: no LAPACK call in the loop
         size = jnp.max(jnp.abs(update))
@@ -166,41 +195,45 @@ def _newton_iteration(residual, newton: NewtonOptions, eye: Array):
             running,
         ).astype(jnp.int8)
         move = ~(step_failed | bad_number | converged)
-        return {
-            "v": jnp.where(move, v + update, v),
-            "k": k,
-            "status": status,
-            "converged": converged | (size < newton.tol),
-            "jac": jac_r + eye,
-            "period": res.time,
-            "length": res.length,
-            "work": res.work,
-        }
+        return _Newton(
+            v=jnp.where(move, v + update, v),
+            k=k,
+            status=status,
+            converged=converged | (size < newton.tol),
+            jac=jac_r + eye,
+            period=res.time,
+            length=res.length,
+            work=res.work,
+            events=res.n_events,
+            ode_steps=res.ode_steps,
+        )
 
     return body
 
 
-def _gait(model: Walker, params, out: dict) -> Gait:
+def _gait(model: Walker, params, out: _Newton) -> Gait:
     """The :class:`Gait` of the search's last carry: NaN numbers unless it converged."""
-    ok = out["status"] == Status.OK
-    eye = jnp.eye(out["v"].shape[0], dtype=out["v"].dtype)
-    eig, lam = _stability(jnp.where(ok, out["jac"], eye))
+    ok = out.status == Status.OK
+    eye = jnp.eye(out.v.shape[0], dtype=out.v.dtype)
+    eig, lam = _stability(jnp.where(ok, out.jac, eye))
     blank = lambda x: jnp.where(ok, x, jnp.nan)
     return Gait(
-        v=blank(out["v"]),
-        jacobian=blank(out["jac"]),
+        v=blank(out.v),
+        jacobian=blank(out.jac),
         eigenvalues=blank(eig),
         lambda_max=blank(lam),
-        period=blank(out["period"]),
-        step_length=blank(out["length"]),
-        speed=blank(out["length"] / out["period"]),
-        status=out["status"],
-        iterations=out["k"],
-        work=blank(out["work"]),
-        cost_of_transport=blank(out["work"] / (model.weight(params) * out["length"])),
+        period=blank(out.period),
+        step_length=blank(out.length),
+        speed=blank(out.length / out.period),
+        status=out.status,
+        iterations=out.k,
+        work=blank(out.work),
+        cost_of_transport=blank(out.work / (model.weight(params) * out.length)),
+        stats=GaitStats(out.k, out.events, out.ode_steps),
     )
 
 
-def step_jacobian(model: Walker, v: Array, params, solver: SolverOptions = SolverOptions()) -> Array:
+def step_jacobian(model: Walker, v: Float[Array, "n_v"], params: Params,
+                  solver: SolverOptions = SolverOptions()) -> Float[Array, "n_v n_v"]:
     """``J = df/dv`` at ``v`` by forward-mode autodiff, ``(n_v, n_v)``."""
     return jax.jacfwd(lambda v_: step_map(model, v_, params, solver)[0])(v)

@@ -34,6 +34,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 from jax.custom_batching import custom_vmap
+from jaxtyping import ArrayLike, Float
 
 Array = jax.Array
 
@@ -43,7 +44,8 @@ Array = jax.Array
 UNROLLED_SOLVE_MAX = 8
 
 
-def second_derivative_along(fn: Callable[[Array], Array], q: Array, qd: Array) -> Array:
+def second_derivative_along(fn: Callable[[Float[Array, "n_q"]], Float[Array, "*m"]], q: Float[Array, "n_q"],
+                            qd: Float[Array, "n_q"]) -> Float[Array, "*m"]:
     """``(d/ds)^2 fn(q + s qd)`` at ``s = 0``: the convective term ``Jdot(q, qd) qd``.
 
     This is the paper's Psi (eq. 4) for a constraint function and the
@@ -53,7 +55,7 @@ def second_derivative_along(fn: Callable[[Array], Array], q: Array, qd: Array) -
     return jax.jvp(first, (q,), (qd,))[1]
 
 
-def jacobian_columns(fn: Callable[[Array], Array], q: Array) -> list[Array]:
+def jacobian_columns(fn: Callable[[Float[Array, "n_q"]], Float[Array, "*m"]], q: Float[Array, "n_q"]) -> list[Float[Array, "*m"]]:
     """``[d fn / d q_k for k in range(n_q)]``, each shaped like ``fn(q)``.
 
     One ``jvp`` per coordinate, kept as separate arrays: ``jax.jacfwd`` would
@@ -86,7 +88,7 @@ def _mass_from_columns(entries: list, weights: list) -> Array:
     return jnp.stack([jnp.stack(row) for row in mass])
 
 
-def mass_matrix(points: Callable[[Array], Array], masses: Array, q: Array) -> Array:
+def mass_matrix(points: Callable[[Float[Array, "n_q"]], Float[Array, "n_points 2"]], masses: Float[Array, "n_points"], q: Float[Array, "n_q"]) -> Float[Array, "n_q n_q"]:
     """Reduced mass matrix ``M_r = sum_i m_i T_i^T T_i``, shape ``(n_q, n_q)``.
 
     Args:
@@ -99,8 +101,8 @@ def mass_matrix(points: Callable[[Array], Array], masses: Array, q: Array) -> Ar
 
 
 def mass_matrix_and_forces(
-    points: Callable[[Array], Array], masses: Array, gravity: Array, q: Array, qd: Array
-) -> tuple[Array, Array]:
+    points: Callable[[Float[Array, "n_q"]], Float[Array, "n_points 2"]], masses: Float[Array, "n_points"], gravity: Float[Array, "2"], q: Float[Array, "n_q"], qd: Float[Array, "n_q"]
+) -> tuple[Float[Array, "n_q n_q"], Float[Array, "n_q"]]:
     """:func:`mass_matrix` and the generalized gravity and velocity-product forces
     ``F_r = sum_i T_i^T m_i (g - Tdot_i qd)`` (eq. 7), ``(n_q,)``, sharing one
     Jacobian of ``points``; joint torques are added by the caller.
@@ -125,13 +127,13 @@ def mass_matrix_and_forces(
     return _mass_from_columns(entries, weights), jnp.stack(forces)
 
 
-def kinetic_energy(points: Callable[[Array], Array], masses: Array, q: Array, qd: Array) -> Array:
+def kinetic_energy(points: Callable[[Float[Array, "n_q"]], Float[Array, "n_points 2"]], masses: Float[Array, "n_points"], q: Float[Array, "n_q"], qd: Float[Array, "n_q"]) -> Float[Array, ""]:
     """``sum_i m_i |v_i|^2 / 2`` for point masses, a scalar."""
     velocities = jax.jvp(points, (q,), (qd,))[1]
     return 0.5 * jnp.sum(masses * jnp.sum(velocities**2, axis=-1))
 
 
-def gravity_potential(points: Callable[[Array], Array], masses: Array, gravity: Array, q: Array) -> Array:
+def gravity_potential(points: Callable[[Float[Array, "n_q"]], Float[Array, "n_points 2"]], masses: Float[Array, "n_points"], gravity: Float[Array, "2"], q: Float[Array, "n_q"]) -> Float[Array, ""]:
     """``-sum_i m_i g . p_i``, a scalar (zero at the slope-frame origin)."""
     return -jnp.sum(masses * (points(q) @ gravity))
 
@@ -300,7 +302,7 @@ def _unrolled_solve_jvp(primals, tangents):
     return x, dx
 
 
-def solve(a: Array, b: Array) -> Array:
+def solve(a: Float[Array, "n n"], b: Float[Array, "n"]) -> Float[Array, "n"]:
     """``a^-1 b`` for a square ``a`` and a vector ``b``, with partial pivoting.
 
     Orders up to :data:`UNROLLED_SOLVE_MAX` use the unrolled elimination (forward
@@ -357,8 +359,8 @@ def _reduced_kkt(mass: Array, sigma: Array, active: np.ndarray) -> Array:
 
 
 def constrained_accelerations(
-    mass: Array, forces: Array, sigma: Array, psi: Array, mask: Array
-) -> tuple[Array, Array]:
+    mass: Float[Array, "n_q n_q"], forces: Float[Array, "n_q"], sigma: Float[Array, "n_c n_q"], psi: Float[Array, "n_c"], mask: Float[ArrayLike, "n_c"]
+) -> tuple[Float[Array, "n_q"], Float[Array, "n_c"]]:
     """Solve the equations of motion with active constraints (paper eq. 5).
 
     ``M qdd = F + Sigma^T lambda`` and ``Sigma qdd + Psi = 0`` for active rows.
@@ -393,7 +395,7 @@ def constrained_accelerations(
     return sol[:n_q], sol[n_q:]
 
 
-def impact(mass: Array, qd_minus: Array, sigma: Array, mask: Array) -> tuple[Array, Array]:
+def impact(mass: Float[Array, "n_q n_q"], qd_minus: Float[Array, "n_q"], sigma: Float[Array, "n_c n_q"], mask: Float[ArrayLike, "n_c"]) -> tuple[Float[Array, "n_q"], Float[Array, "n_c"]]:
     """Perfectly inelastic impact onto the active constraints (eqs. 13 and 16, e = 0).
 
     ``M (qd+ - qd-) = Sigma^T Lambda`` and ``Sigma qd+ = 0`` for active rows.

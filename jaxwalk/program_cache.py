@@ -38,7 +38,7 @@ from jax import export
 from jaxwalk import cache
 from jaxwalk.continuation import LineCarry
 from jaxwalk.files import write_atomically
-from jaxwalk.gait import Gait
+from jaxwalk.gait import Gait, GaitStats
 from jaxwalk.stepdown import StepDownResult
 
 def serializable(output_type: type) -> type:
@@ -49,7 +49,7 @@ def serializable(output_type: type) -> type:
 
 
 #: Output types of the grid programs, so that their exported form can be saved.
-for _type in (Gait, LineCarry, StepDownResult):
+for _type in (Gait, GaitStats, LineCarry, StepDownResult):
     serializable(_type)
 
 _LIBRARIES = ("jax", "jaxlib", "diffrax", "equinox", "optimistix", "lineax", "numpy")

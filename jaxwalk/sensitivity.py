@@ -47,13 +47,13 @@ from typing import NamedTuple, Sequence
 
 import jax
 import jax.numpy as jnp
+from jaxtyping import Array, Float, Int8, Int32
 
 from jaxwalk.gait import NewtonOptions, find_gait, value_and_jacfwd
 from jaxwalk.status import Status
 from jaxwalk.step import SolverOptions, step_map
 from jaxwalk.walker import Walker
 
-Array = jax.Array
 
 #: ``I - J`` with a condition number above this, or a dominant eigenvalue with
 #: ``|u^H w| / (|u| |w|)`` below ``EIGEN_CONDITION_MIN``, has no usable derivative.
@@ -83,16 +83,16 @@ class GaitMetrics(NamedTuple):
         iterations: Newton iterations used.
     """
 
-    v: Array
-    jacobian: Array
-    lambda_max: Array
-    speed: Array
-    step_length: Array
-    period: Array
-    cost_of_transport: Array
-    modulus_gap: Array
-    status: Array
-    iterations: Array
+    v: Float[Array, "*batch n_v"]
+    jacobian: Float[Array, "*batch n_v n_v"]
+    lambda_max: Float[Array, "*batch"]
+    speed: Float[Array, "*batch"]
+    step_length: Float[Array, "*batch"]
+    period: Float[Array, "*batch"]
+    cost_of_transport: Float[Array, "*batch"]
+    modulus_gap: Float[Array, "*batch"]
+    status: Int8[Array, "*batch"]
+    iterations: Int32[Array, "*batch"]
 
 
 # ---------------------------------------------------------------- the fixed point
@@ -259,13 +259,13 @@ class Sensitivity(NamedTuple):
     """
 
     metrics: GaitMetrics
-    d_v: Array
-    d_lambda_max: Array
-    d_speed: Array
-    d_step_length: Array
-    d_period: Array
-    d_cost_of_transport: Array
-    status: Array
+    d_v: Float[Array, "*batch n_v n_p"]
+    d_lambda_max: Float[Array, "*batch n_p"]
+    d_speed: Float[Array, "*batch n_p"]
+    d_step_length: Float[Array, "*batch n_p"]
+    d_period: Float[Array, "*batch n_p"]
+    d_cost_of_transport: Float[Array, "*batch n_p"]
+    status: Int8[Array, "*batch"]
 
 
 def gait_sensitivity(

@@ -19,14 +19,13 @@ from typing import NamedTuple
 import diffrax
 import jax
 import jax.numpy as jnp
+from jaxtyping import Array, ArrayLike, Float, Int32
 
 from jaxwalk.flatstep import run_step_flat
 from jaxwalk.rootfind import BracketedNewton
 from jaxwalk.status import Status
 from jaxwalk.stepbase import PhaseEnd, SolverOptions, StepResult, close_phase, guard_offsets  # noqa: F401 (re-exported)
-from jaxwalk.walker import Walker
-
-Array = jax.Array
+from jaxwalk.walker import Params, Walker
 
 
 def solve_phase(model: Walker, params, y, phase, ctx, t0, opts: SolverOptions, dense: bool = False):
@@ -66,9 +65,10 @@ def solve_phase(model: Walker, params, y, phase, ctx, t0, opts: SolverOptions, d
 
 
 def _solve_phase(model: Walker, params, y, phase, ctx, t0, opts: SolverOptions):
-    """End time, end state and diffrax result of :func:`solve_phase`."""
+    """End time, end state and diffrax result of :func:`solve_phase`, and its
+    solver steps (accepted and rejected)."""
     sol = solve_phase(model, params, y, phase, ctx, t0, opts)
-    return sol.ts[-1], sol.ys[-1], sol.result
+    return (sol.ts[-1], sol.ys[-1], sol.result), jnp.asarray(sol.stats["num_steps"], jnp.int32)
 
 
 def end_phase(model: Walker, params, t0, y0, phase, ctx, solved, n_events, opts: SolverOptions) -> PhaseEnd:
@@ -106,9 +106,11 @@ class _PhaseLoop(NamedTuple):
     status: Array  # int8; IN_PROGRESS while the step goes on
     n_events: Array  # int32, events so far
     work: Array  # actuator work so far (model energy units)
+    ode_steps: Array  # int32, ODE solver steps so far (accepted and rejected)
 
 
-def run_step(model: Walker, params, y0: Array, phase0: Array, ctx0: Array, opts: SolverOptions = SolverOptions()) -> StepResult:
+def run_step(model: Walker, params: Params, y0: Float[Array, "2*n_q"], phase0: Int32[ArrayLike, ""],
+             ctx0: Float[Array, "n_ctx"], opts: SolverOptions = SolverOptions()) -> StepResult:
     """Run one step from a full state. Pure; ``jit``/``vmap``/``jacfwd`` ready.
 
     Args:
@@ -130,13 +132,13 @@ def run_step(model: Walker, params, y0: Array, phase0: Array, ctx0: Array, opts:
         return (c.status == in_progress) & (c.n_events < opts.max_events)
 
     def body(c: _PhaseLoop) -> _PhaseLoop:
-        solved = _solve_phase(model, params, c.y, c.phase, c.ctx, c.t, opts)
+        solved, ode_steps = _solve_phase(model, params, c.y, c.phase, c.ctx, c.t, opts)
         end = end_phase(model, params, c.t, c.y, c.phase, c.ctx, solved, c.n_events, opts)
         # Work over the phase, from its start to the event (before the reset,
         # which may relabel the legs); impacts do not move the joints.
         work = c.work + model.actuator_work(c.y, end.y_event, params)
         return _PhaseLoop(end.t_event, end.y_next, end.phase_next, end.ctx_next, c.length + end.shift, end.status,
-                          end.n_events, work)
+                          end.n_events, work, c.ode_steps + ode_steps)
 
     dtype = y0.dtype
     c0 = _PhaseLoop(
@@ -148,12 +150,14 @@ def run_step(model: Walker, params, y0: Array, phase0: Array, ctx0: Array, opts:
         status=in_progress,
         n_events=jnp.zeros((), jnp.int32),
         work=jnp.zeros((), dtype),
+        ode_steps=jnp.zeros((), jnp.int32),
     )
     c = jax.lax.while_loop(cond, body, c0)
-    return StepResult(c.y, c.ctx, c.phase, c.t, c.length, c.status, c.n_events, c.work)
+    return StepResult(c.y, c.ctx, c.phase, c.t, c.length, c.status, c.n_events, c.work, c.ode_steps)
 
 
-def step_map(model: Walker, v: Array, params, opts: SolverOptions = SolverOptions(), ground_drop: Array | float = 0.0):
+def step_map(model: Walker, v: Float[Array, "n_v"], params: Params, opts: SolverOptions = SolverOptions(),
+             ground_drop: Float[ArrayLike, ""] = 0.0) -> tuple[Float[Array, "n_v"], StepResult]:
     """The Poincaré map on section coordinates: ``v_next, StepResult``.
 
     Args:

@@ -15,11 +15,11 @@ from typing import NamedTuple
 import diffrax
 import jax
 import jax.numpy as jnp
+from jaxtyping import Array, Bool, Float, Int8, Int32
 
 from jaxwalk.status import Status
-from jaxwalk.walker import Walker
+from jaxwalk.walker import Params, Walker
 
-Array = jax.Array
 
 @dataclasses.dataclass(frozen=True)
 class SolverOptions:
@@ -84,16 +84,19 @@ class StepResult(NamedTuple):
         work: work done by the walker's actuators over the step (model energy
             units; 0 for passive walkers), summed phase by phase with
             :meth:`~jaxwalk.walker.Walker.actuator_work`.
+        ode_steps: ODE solver steps, accepted and rejected, summed over the
+            step's phases (what the step cost; :class:`jaxwalk.gait.GaitStats`).
     """
 
-    y: Array
-    ctx: Array
-    phase: Array
-    time: Array
-    length: Array
-    status: Array
-    n_events: Array
-    work: Array
+    y: Float[Array, "*batch 2*n_q"]
+    ctx: Float[Array, "*batch n_ctx"]
+    phase: Int32[Array, "*batch"]
+    time: Float[Array, "*batch"]
+    length: Float[Array, "*batch"]
+    status: Int8[Array, "*batch"]
+    n_events: Int32[Array, "*batch"]
+    work: Float[Array, "*batch"]
+    ode_steps: Int32[Array, "*batch"]
 
 
 class PhaseEnd(NamedTuple):
@@ -114,20 +117,21 @@ class PhaseEnd(NamedTuple):
         n_events: events in the step, this one included.
     """
 
-    t_event: Array
-    y_event: Array
-    guard: Array
-    event_happened: Array
-    y_next: Array
-    phase_next: Array
-    ctx_next: Array
-    shift: Array
-    step_done: Array
-    status: Array
-    n_events: Array
+    t_event: Float[Array, ""]
+    y_event: Float[Array, "2*n_q"]
+    guard: Int32[Array, ""]
+    event_happened: Bool[Array, ""]
+    y_next: Float[Array, "2*n_q"]
+    phase_next: Int32[Array, ""]
+    ctx_next: Float[Array, "n_ctx"]
+    shift: Float[Array, ""]
+    step_done: Bool[Array, ""]
+    status: Int8[Array, ""]
+    n_events: Int32[Array, ""]
 
 
-def guard_offsets(model: Walker, params, t0, y0, phase, ctx, opts: SolverOptions) -> Array:
+def guard_offsets(model: Walker, params: Params, t0: Float[Array, ""], y0: Float[Array, "2*n_q"], phase: Int32[Array, ""],
+                  ctx: Float[Array, "n_ctx"], opts: SolverOptions) -> Float[Array, "n_guards"]:
     """``(n_guards,)`` added to the guards while the phase started at ``(t0, y0)`` runs.
 
     A phase watches the smallest guard for a crossing from positive to

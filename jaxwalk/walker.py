@@ -48,11 +48,11 @@ from typing import Callable, Mapping, NamedTuple
 
 import jax
 import jax.numpy as jnp
+from jaxtyping import Array, ArrayLike, Bool, Float, Int8, Int32
 
 from jaxwalk import mechanics
 from jaxwalk.parameters import ParamSpec
 
-Array = jax.Array
 Params = dict
 
 
@@ -70,12 +70,12 @@ def distal(angle: Array) -> Array:
 class Transition(NamedTuple):
     """What follows an event. All leaves are scalars or vectors of the state's dtype."""
 
-    phase: Array  # int32, the next phase
-    y: Array  # (2 n_q,) state after the reset
-    ctx: Array  # (n_ctx,) discrete state after the reset
-    status: Array  # int8 Status; IN_PROGRESS while the step goes on
-    step_done: Array  # bool, True when this event ends the step (legs swapped)
-    shift: Array  # x translation of the frame at this event: the step length when step_done, else 0
+    phase: Int32[Array, ""]  # the next phase
+    y: Float[Array, "2*n_q"]  # state after the reset
+    ctx: Float[Array, "n_ctx"]  # discrete state after the reset
+    status: Int8[Array, ""]  # Status; IN_PROGRESS while the step goes on
+    step_done: Bool[Array, ""]  # True when this event ends the step (legs swapped)
+    shift: Float[Array, ""]  # x translation of the frame at this event: the step length when step_done, else 0
 
 
 class Walker:
@@ -172,11 +172,11 @@ class Walker:
         return ctx.at[self.ground_next].set(-drop * jnp.cos(self.slope(params)))
 
     # ---------------------------------------------------------------- model
-    def points(self, q: Array, params: Params) -> Array:
+    def points(self, q: Float[Array, "n_q"], params: Params) -> Float[Array, "n_points 2"]:
         """*model* ``(n_points, 2)`` positions of the point masses."""
         raise NotImplementedError
 
-    def masses(self, params: Params) -> Array:
+    def masses(self, params: Params) -> Float[Array, "n_points"]:
         """*model* ``(n_points,)`` the point masses."""
         raise NotImplementedError
 
@@ -186,29 +186,29 @@ class Walker:
         gamma = self.slope(params)
         return g * jnp.stack([jnp.sin(gamma), -jnp.cos(gamma)])
 
-    def constraints(self, q: Array, params: Params, ctx: Array) -> Array:
+    def constraints(self, q: Float[Array, "n_q"], params: Params, ctx: Float[Array, "n_ctx"]) -> Float[Array, "n_constraints"]:
         """*model* ``(n_constraints,)`` every constraint the model can use."""
         raise NotImplementedError
 
-    def constraint_mask(self, phase: Array, params: Params) -> Array:
+    def constraint_mask(self, phase: Int32[ArrayLike, ""], params: Params) -> Float[Array, "n_constraints"]:
         """*model* ``(n_constraints,)`` 1.0 where the constraint holds in ``phase``."""
         raise NotImplementedError
 
-    def joint_forces(self, q: Array, qd: Array, params: Params, phase: Array, ctx: Array) -> Array:
+    def joint_forces(self, q: Float[Array, "n_q"], qd: Float[Array, "n_q"], params: Params, phase: Int32[ArrayLike, ""], ctx: Float[Array, "n_ctx"]) -> Float[Array, "n_q"]:
         """Generalized torques from actuators and springs, ``(n_q,)``. Default none."""
         return jnp.zeros_like(q)
 
-    def spring_energy(self, q: Array, params: Params, phase: Array, ctx: Array) -> Array:
+    def spring_energy(self, q: Float[Array, "n_q"], params: Params, phase: Int32[ArrayLike, ""], ctx: Float[Array, "n_ctx"]) -> Float[Array, ""]:
         """Elastic energy stored in springs (scalar). Default none."""
         return jnp.zeros((), q.dtype)
 
-    def actuator_power(self, q: Array, qd: Array, params: Params, phase: Array, ctx: Array) -> Array:
+    def actuator_power(self, q: Float[Array, "n_q"], qd: Float[Array, "n_q"], params: Params, phase: Int32[ArrayLike, ""], ctx: Float[Array, "n_ctx"]) -> Float[Array, ""]:
         """*actuators* power of the actuators, ``qd . Q_actuator`` (scalar, model
         power units); the recorder of ``jaxwalk simulate`` integrates it to work.
         Default none: a passive walker (see :attr:`actuated`)."""
         return jnp.zeros((), qd.dtype)
 
-    def actuator_work(self, y_start: Array, y_end: Array, params: Params) -> Array:
+    def actuator_work(self, y_start: Float[Array, "2*n_q"], y_end: Float[Array, "2*n_q"], params: Params) -> Float[Array, ""]:
         """*actuators* work done by the actuators from ``y_start`` to ``y_end`` within one
         phase (scalar, model energy units). Default none: a passive walker."""
         return jnp.zeros((), y_start.dtype)
@@ -222,23 +222,24 @@ class Walker:
         """Total weight, ``g`` times the sum of the point masses (model force units)."""
         return params.get("g", 1.0) * jnp.sum(self.masses(params))
 
-    def guard_values(self, t: Array, y: Array, params: Params, phase: Array, ctx: Array) -> Array:
+    def guard_values(self, t: Float[Array, ""], y: Float[Array, "2*n_q"], params: Params, phase: Int32[ArrayLike, ""], ctx: Float[Array, "n_ctx"]) -> Float[Array, "n_guards"]:
         """*model* ``(len(guards),)``, positive while the phase goes on."""
         raise NotImplementedError
 
-    def on_event(self, guard: Array, t: Array, y: Array, params: Params, phase: Array, ctx: Array) -> Transition:
+    def on_event(self, guard: Int32[ArrayLike, ""], t: Float[Array, ""], y: Float[Array, "2*n_q"], params: Params, phase: Int32[ArrayLike, ""],
+                 ctx: Float[Array, "n_ctx"]) -> Transition:
         """*model* the reset after guard ``guard`` (an int index) crossed zero."""
         raise NotImplementedError
 
-    def section_to_state(self, v: Array, params: Params) -> tuple[Array, Array, Array]:
+    def section_to_state(self, v: Float[Array, "n_v"], params: Params) -> tuple[Float[Array, "2*n_q"], Int32[ArrayLike, ""], Float[Array, "n_ctx"]]:
         """*model* full ``(y, phase, ctx)`` at the start of a step from section coordinates."""
         raise NotImplementedError
 
-    def state_to_section(self, y: Array, params: Params, ctx: Array) -> Array:
+    def state_to_section(self, y: Float[Array, "2*n_q"], params: Params, ctx: Float[Array, "n_ctx"]) -> Float[Array, "n_v"]:
         """*model* section coordinates ``v`` of a state at the start of a step."""
         raise NotImplementedError
 
-    def initial_guess(self, params: Params) -> Array:
+    def initial_guess(self, params: Params) -> Float[Array, "n_v"]:
         """*model* a starting point for Newton's method, ``(len(section_names),)``."""
         raise NotImplementedError
 
@@ -247,13 +248,13 @@ class Walker:
         return jnp.sqrt(1.0 / params.get("g", 1.0))
 
     # ---------------------------------------------------------------- drawing
-    def skeleton(self, q: Array, params: Params, ctx: Array) -> Array:
+    def skeleton(self, q: Float[Array, "n_q"], params: Params, ctx: Float[Array, "n_ctx"]) -> Float[Array, "2 n_points 2"]:
         """*drawing* ``(2, n_points, 2)``: a polyline per leg (leg 1 the stance leg)
         from the hip to the foot, ``hip, [knee], ankle or foot, [heel, toe]``, in
         the slope frame (:mod:`jaxwalk.figures`)."""
         raise NotImplementedError(f"model '{self.name}' {missing(self, 'drawing')}")
 
-    def foot_points(self, q: Array, params: Params, ctx: Array) -> Array:
+    def foot_points(self, q: Float[Array, "n_q"], params: Params, ctx: Float[Array, "n_ctx"]) -> Float[Array, "2 n_foot 2"]:
         """*drawing* ``(2, n_foot, 2)``: the points of each foot that can touch the
         ground, in the slope frame (the figures' foot clearance)."""
         raise NotImplementedError(f"model '{self.name}' {missing(self, 'drawing')}")
@@ -268,7 +269,7 @@ class Walker:
         sigma = jnp.stack(mechanics.jacobian_columns(xi, q), axis=1)
         return sigma, mechanics.second_derivative_along(xi, q, qd)
 
-    def dynamics(self, y: Array, params: Params, phase: Array, ctx: Array) -> tuple[Array, Array]:
+    def dynamics(self, y: Float[Array, "2*n_q"], params: Params, phase: Int32[ArrayLike, ""], ctx: Float[Array, "n_ctx"]) -> tuple[Float[Array, "n_q"], Float[Array, "n_constraints"]]:
         """Accelerations ``(n_q,)`` and constraint forces ``(n_c,)`` in ``phase``."""
         q, qd = self.split(y)
         pts = lambda q_: self.points(q_, params)
@@ -282,7 +283,7 @@ class Walker:
             mask = self.constraint_mask(phase, params)
         return mechanics.constrained_accelerations(mass, forces, sigma, psi, mask)
 
-    def vector_field(self, t: Array, y: Array, args: tuple) -> Array:
+    def vector_field(self, t: Float[Array, ""], y: Float[Array, "2*n_q"], args: tuple) -> Float[Array, "2*n_q"]:
         """``dy/dt`` for diffrax: ``args = (params, phase, ctx)``."""
         params, phase, ctx = args
         qdd, _ = self.dynamics(y, params, phase, ctx)
@@ -297,7 +298,7 @@ class Walker:
         qd_plus, impulses = mechanics.impact(mass, qd, sigma, mask)
         return jnp.concatenate([q, qd_plus]), impulses
 
-    def energy(self, y: Array, params: Params, phase: Array, ctx: Array) -> Array:
+    def energy(self, y: Float[Array, "2*n_q"], params: Params, phase: Int32[ArrayLike, ""], ctx: Float[Array, "n_ctx"]) -> Float[Array, ""]:
         """Total mechanical energy: kinetic + gravity + springs (scalar)."""
         q, qd = self.split(y)
         pts = lambda q_: self.points(q_, params)

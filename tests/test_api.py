@@ -80,3 +80,21 @@ def test_bad_input_raises_config_error_with_the_cli_message(tmp_path, capsys, te
 def test_a_config_of_another_type_is_refused():
     with pytest.raises(jaxwalk.ConfigError, match="expected a path, TOML text or a dict"):
         jaxwalk.sweep(42)
+
+
+def test_shape_annotations_resolve():
+    """The jaxtyping shapes on the result types and core signatures are valid
+    annotations (they are strings until asked for: a typo would pass unseen)."""
+    import typing
+
+    from jaxwalk import attractor, bifurcation, mechanics, sensitivity, stepbase
+    from jaxwalk.flatstep import run_step_flat
+
+    things = [jaxwalk.Gait, jaxwalk.StepResult, stepbase.PhaseEnd, jaxwalk.Transition, attractor.Attractor,
+              bifurcation.Bifurcations, sensitivity.GaitMetrics, sensitivity.Sensitivity, jaxwalk.find_gait,
+              jaxwalk.step_map, jaxwalk.run_step, run_step_flat, mechanics.impact, mechanics.constrained_accelerations,
+              *(getattr(jaxwalk.Walker, m) for m in ("section_to_state", "guard_values", "on_event", "points"))]
+    for thing in things:
+        hints = typing.get_type_hints(thing)
+        assert hints, thing
+    assert "n_v n_v" in str(typing.get_type_hints(jaxwalk.Gait)["jacobian"])
