@@ -45,11 +45,12 @@ import numpy as np  # noqa: E402
 
 import jaxwalk  # noqa: E402,F401
 from benchmarks._record import machine, write_result  # noqa: E402
-from jaxwalk.analyses import plugins  # noqa: E402
 from jaxwalk.analyses.basin import DEFAULTS as BASIN_DEFAULTS  # noqa: E402
 from jaxwalk.grid import AnalysisOptions, analyse_grid  # noqa: E402
 from jaxwalk.models import get_model  # noqa: E402
 from jaxwalk.parameters import parameter_grid  # noqa: E402
+from jaxwalk.sweep import loads_config  # noqa: E402
+from jaxwalk.sweep.runner import analysis_options  # noqa: E402
 
 H_MAX = {"step": 0.0005, "count": 40, "steps": 10}  # sweeps/simplest_hmax.toml
 
@@ -69,27 +70,25 @@ WALKERS = {
 }
 
 
-def options_for(table: dict, model, axis: str) -> AnalysisOptions:
-    """The :class:`AnalysisOptions` of an ``[analysis]`` table, resolved by the
-    analyses' own parsers (as ``jaxwalk.sweep.runner.analysis_options``)."""
+def _toml(value) -> str:
+    """A TOML value for the few kinds an ``[analysis]`` table here holds."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, dict):
+        return "{ " + ", ".join(f"{k} = {_toml(v)}" for k, v in value.items()) + " }"
+    return repr(value)
 
-    def fail(message):
-        return ValueError(message)
 
-    fields, more = {}, []
-    for analysis in plugins():
-        if not any(k in table for k in analysis.keys):
-            continue
-        resolved = analysis.parse(table, fail, continuation=axis)
-        analysis.check_model(resolved, model, fail)
-        grid_options = analysis.grid_options(resolved)
-        if grid_options is None:
-            continue
-        if analysis.options_field is not None:
-            fields[analysis.options_field] = grid_options
-        else:
-            more.append((analysis.name, grid_options))
-    return AnalysisOptions(**fields, more=tuple(more))
+def options_for(table: dict, name: str, fixed: dict, grid: dict) -> AnalysisOptions:
+    """The :class:`AnalysisOptions` a sweep config with this ``[analysis]`` table
+    runs with: the config is written as TOML and resolved by the sweep's own
+    loader and :func:`jaxwalk.sweep.runner.analysis_options`, so the benchmark
+    times exactly what ``jaxwalk sweep`` would run."""
+    lines = ['name = "bench"', f'model = "{name}"', "[params]"]
+    lines += [f"{k} = {float(v)!r}" for k, v in fixed.items()]
+    lines += ["[grid]"] + [f"{k} = {{ values = [{', '.join(repr(float(x)) for x in v)}] }}" for k, v in grid.items()]
+    lines += ["[analysis]", 'continuation = "gamma"'] + [f"{k} = {_toml(v)}" for k, v in table.items()]
+    return analysis_options(loads_config("\n".join(lines)))
 
 
 def timed(run, repeat: int) -> tuple[float, float, dict]:
@@ -173,7 +172,7 @@ def bench(name: str, n: int, repeat: int) -> dict:
     t_start = time.perf_counter()
     rows = {}
     for measure, table in tables.items():
-        options = options_for(table, model, "gamma")
+        options = options_for(table, name, spec["fixed"], grid)
         first, best, res = timed(lambda: analyse_grid(model, spec["fixed"], grid, "gamma", options), repeat)
         res["__params__"] = parameter_grid(model, spec["fixed"], grid)
         rows[measure] = {"first_call_s": first, "best_s": best, "per_config_ms": 1e3 * best / configs,
