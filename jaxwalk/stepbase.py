@@ -37,8 +37,13 @@ class SolverOptions:
             ``[-start_guard_margin, 0]`` (the guard whose event just ended the
             previous phase, zero to root-finding accuracy) is lifted by twice
             the margin for the phase (:func:`guard_offsets`).
-        solver: ``"dopri8"`` (default; 7th-order dense output keeps event times
-            accurate at loose steps) or ``"tsit5"``.
+        solver: the ODE solver, a diffrax solver object (``diffrax.Tsit5()``)
+            or the name of one, ``"dopri8"`` (default; 7th-order dense output
+            keeps event times accurate at loose steps), ``"tsit5"`` or
+            ``"dopri5"`` (the names configs use). An object is part of the jit
+            cache key by value (equinox modules compare and hash by their
+            fields) and of the program cache's by its ``repr``. The flat engine
+            needs an explicit Runge-Kutta solver (one with ``scan_kind``).
         engine: ``"nested"`` (one ``diffeqsolve`` per phase, :mod:`jaxwalk.step`)
             or ``"flat"`` (one loop of integrator steps per step, every lane
             in its own phase, :mod:`jaxwalk.flatstep`). The default is read from
@@ -56,7 +61,7 @@ class SolverOptions:
     max_events: int = 16
     phase_time_limit: float = 12.0
     start_guard_margin: float = 1e-9
-    solver: str = "dopri8"
+    solver: str | diffrax.AbstractSolver = "dopri8"
     engine: str = dataclasses.field(default_factory=lambda: os.environ.get("JAXWALK_ENGINE", "nested"))
     event_iterations: int = 8
 
@@ -64,9 +69,26 @@ class SolverOptions:
         # run_step's loop is bounded by max_events (its condition); a step has at least one event.
         if self.max_events < 1:
             raise ValueError(f"SolverOptions.max_events must be >= 1, got {self.max_events}")
+        if isinstance(self.solver, str) and self.solver not in SOLVERS:
+            raise ValueError(f"SolverOptions.solver must be one of {', '.join(SOLVERS)} or a diffrax solver, got {self.solver!r}")
+        if not isinstance(self.solver, (str, diffrax.AbstractSolver)):
+            raise TypeError(f"SolverOptions.solver must be a name or a diffrax solver, got {type(self.solver).__name__}")
 
-    def make_solver(self):
-        return {"dopri8": diffrax.Dopri8, "tsit5": diffrax.Tsit5, "dopri5": diffrax.Dopri5}[self.solver]()
+    def make_solver(self) -> diffrax.AbstractSolver:
+        """The diffrax solver: :attr:`solver` itself, or a new one of the class it names."""
+        return SOLVERS[self.solver]() if isinstance(self.solver, str) else self.solver
+
+    def as_record(self) -> dict:
+        """The settings as plain data for a dataset's attributes: every field, the
+        solver by its name (an object by its ``repr``, e.g. ``"Tsit5()"``, where
+        ``dataclasses.asdict`` would keep only its fields and lose its class)."""
+        record = dataclasses.asdict(self)
+        record["solver"] = self.solver if isinstance(self.solver, str) else repr(self.solver)
+        return record
+
+
+#: The solvers :attr:`SolverOptions.solver` can name.
+SOLVERS = {"dopri8": diffrax.Dopri8, "tsit5": diffrax.Tsit5, "dopri5": diffrax.Dopri5}
 
 
 class StepResult(NamedTuple):

@@ -98,3 +98,21 @@ def test_shape_annotations_resolve():
         hints = typing.get_type_hints(thing)
         assert hints, thing
     assert "n_v n_v" in str(typing.get_type_hints(jaxwalk.Gait)["jacobian"])
+
+
+
+
+def test_solver_options_take_a_diffrax_solver():
+    """A diffrax solver object or its name: hashable and equal by value (a jit
+    static argument), with a program-cache repr that holds no object address."""
+    import diffrax
+
+    a, b = jaxwalk.SolverOptions(solver=diffrax.Dopri8()), jaxwalk.SolverOptions(solver=diffrax.Dopri8())
+    assert hash(a) == hash(b) and a == b and a != jaxwalk.SolverOptions(solver=diffrax.Tsit5())
+    assert "0x" not in repr(a) and isinstance(a.make_solver(), diffrax.Dopri8)
+    assert isinstance(jaxwalk.SolverOptions(solver="tsit5").make_solver(), diffrax.Tsit5)
+    with pytest.raises(ValueError, match="dopri8, tsit5, dopri5"):
+        jaxwalk.SolverOptions(solver="rk4")
+    # A dataset records the solver by name (an object by its repr), never by its fields alone.
+    assert jaxwalk.SolverOptions(solver=diffrax.Tsit5()).as_record()["solver"] == "Tsit5()"
+    assert jaxwalk.SolverOptions().as_record()["solver"] == "dopri8"

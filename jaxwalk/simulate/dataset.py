@@ -3,7 +3,6 @@ attributes, provenance (layout: ``docs/simulate.md``)."""
 
 from __future__ import annotations
 
-import dataclasses
 import datetime as _dt
 import json
 from typing import Any
@@ -180,7 +179,7 @@ def _attributes(config: SimulateConfig, model: Walker, units, *, gait, command, 
         "dt": config.dt,
         **_start(config, gait),
         "status_meanings": flag_attributes()["flag_descriptions"],
-        "solver_options": json.dumps(dataclasses.asdict(solver) if solver is not None else {}, default=str),
+        "solver_options": json.dumps(solver.as_record() if solver is not None else {}, default=str),
         "config": config.to_json(),
         "config_toml": config.text if config.text is not None else "",
         "config_source": config.source,

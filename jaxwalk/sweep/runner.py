@@ -279,6 +279,8 @@ def _as_attribute(options) -> dict:
     if not dataclasses.is_dataclass(options):
         return dict(options)
     record = dataclasses.asdict(options)
+    if hasattr(options, "solver"):  # a solver object by name, not by its fields
+        record["solver"] = options.solver.as_record()
     record.update(dict(record.pop("more", ())))
     return record
 
