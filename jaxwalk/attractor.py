@@ -105,6 +105,15 @@ class Attractor(NamedTuple):
     steps_walked: Int32[Array, "*batch"]
 
 
+class _Cycle(NamedTuple):
+    """The carry of :func:`cycle_map`'s loop, one iteration per step."""
+
+    j: Array  # int32, steps taken
+    v: Array  # (n_v,) the point after j steps
+    status: Array  # int8, the last step's status
+    points: Array  # (max_period, n_v): points[i] after i steps, for i < j
+
+
 def cycle_map(model: Walker, params, v: Array, k: Array, max_period: int, solver: SolverOptions):
     """``f^k(v)``: ``k`` steps (an int, data; at most ``max_period``) of the step map.
 
@@ -115,20 +124,17 @@ def cycle_map(model: Walker, params, v: Array, k: Array, max_period: int, solver
     """
     points0 = jnp.broadcast_to(v, (max_period,) + v.shape)
 
-    def cond(carry):
-        j, _, status, _ = carry
-        return (j < k) & (status == Status.OK)
+    def cond(c: _Cycle):
+        return (c.j < k) & (c.j < max_period) & (c.status == Status.OK)
 
-    def body(carry):
-        j, v_j, _, points = carry
-        points = jax.lax.dynamic_update_index_in_dim(points, v_j, j, 0)
-        v_next, res = step_map(model, v_j, params, solver)
-        return j + 1, v_next, res.status.astype(jnp.int8), points
+    def body(c: _Cycle) -> _Cycle:
+        points = jax.lax.dynamic_update_index_in_dim(c.points, c.v, c.j, 0)
+        v_next, res = step_map(model, c.v, params, solver)
+        return _Cycle(c.j + 1, v_next, res.status.astype(jnp.int8), points)
 
-    carry0 = (jnp.zeros((), jnp.int32), v, jnp.int8(Status.OK), points0)
-    j, v_k, status, points = jax.lax.while_loop(cond, body, carry0)
+    end = jax.lax.while_loop(cond, body, _Cycle(jnp.zeros((), jnp.int32), v, jnp.int8(Status.OK), points0))
     rows = jnp.arange(max_period)[:, None]
-    return v_k, jnp.where(rows < j, points, v_k), status
+    return end.v, jnp.where(rows < end.j, end.points, end.v), end.status
 
 
 def dominant_direction(jacobian: Array) -> Array:
@@ -192,6 +198,21 @@ def settle(model: Walker, params, v0: Array, options: AttractorOptions, solver: 
     return c.v, c.k, c.n, c.status
 
 
+class _CycleNewton(NamedTuple):
+    """The carry of :func:`find_cycle`'s loop, one Newton iteration or halving per trip."""
+
+    v: Array  # (n_v,) the iterate
+    it: Array  # int32, Newton iterations so far
+    status: Array  # int8; IN_PROGRESS while the search goes on
+    converged: Array  # bool: the last update fell below the tolerance
+    jac: Array  # (n_v, n_v) d f^k / dv at the last iterate whose steps did not fail
+    points: Array  # (max_period, n_v) the cycle's points there
+    v_prev: Array  # (n_v,) the iterate an update is halved back towards
+    last: Array  # (n_v,) the last update
+    halvings: Array  # int32, halvings of the current update
+    trips: Array  # int32, loop trips (bounded)
+
+
 def find_cycle(model: Walker, params, v0: Array, k: Array, max_period: int,
                solver: SolverOptions = SolverOptions(), newton: NewtonOptions = NewtonOptions()):
     """Newton-Raphson fixed point of the k-step map ``f^k`` from ``v0`` (one config).
@@ -216,40 +237,43 @@ def find_cycle(model: Walker, params, v0: Array, k: Array, max_period: int,
         v_k, points, status = cycle_map(model, params, v, k, max_period, solver)
         return v_k - v, (points, status)
 
-    def cond(carry):
-        return carry["status"] == running
+    # Each trip counts a Newton iteration, a halving (at most MAX_HALVINGS per
+    # iteration) or the last evaluation at the converged point.
+    max_trips = newton.max_iter * (MAX_HALVINGS + 1) + 1
 
-    def body(carry):
-        v, it, converged = carry["v"], carry["it"], carry["converged"]
-        r, jac_r, (points, step_status) = value_and_jacfwd(residual, v)
+    def cond(c: _CycleNewton):
+        return (c.status == running) & (c.trips < max_trips)
+
+    def body(c: _CycleNewton) -> _CycleNewton:
+        r, jac_r, (points, step_status) = value_and_jacfwd(residual, c.v)
         update = -mechanics.solve(jac_r, r)
         size = jnp.max(jnp.abs(update))
         update = update * jnp.minimum(1.0, newton.max_update / jnp.maximum(size, 1e-300))
         failed = step_status != Status.OK
         # Damped Newton: an update whose k steps fail (a k-step map's Newton
         # step can overshoot into scuffing) is halved, up to MAX_HALVINGS times.
-        retry = failed & (it > 0) & (carry["halvings"] < MAX_HALVINGS)
+        retry = failed & (c.it > 0) & (c.halvings < MAX_HALVINGS)
         bad = ~jnp.all(jnp.isfinite(update))
-        it = it + jnp.where(converged | retry, 0, 1)
+        it = c.it + jnp.where(c.converged | retry, 0, 1)
         status = jnp.select(
-            [retry, failed, converged, bad | (it >= newton.max_iter)],
+            [retry, failed, c.converged, bad | (it >= newton.max_iter)],
             [running, step_status, jnp.int8(Status.OK), jnp.int8(Status.NO_CONVERGENCE)],
             running,
         ).astype(jnp.int8)
-        move = ~(failed | bad | converged)
-        half = 0.5 * carry["last"]
-        v_next = jnp.where(retry, carry["v_prev"] + half, jnp.where(move, v + update, v))
-        return {"v": v_next, "it": it, "status": status,
-                "converged": converged | (~failed & (size < newton.tol)),
-                "jac": jnp.where(failed, carry["jac"], jac_r + eye), "points": jnp.where(failed, carry["points"], points),
-                "v_prev": jnp.where(failed, carry["v_prev"], v), "last": jnp.where(retry, half, update),
-                "halvings": jnp.where(retry, carry["halvings"] + 1, 0)}
+        move = ~(failed | bad | c.converged)
+        half = 0.5 * c.last
+        return _CycleNewton(
+            v=jnp.where(retry, c.v_prev + half, jnp.where(move, c.v + update, c.v)), it=it, status=status,
+            converged=c.converged | (~failed & (size < newton.tol)),
+            jac=jnp.where(failed, c.jac, jac_r + eye), points=jnp.where(failed, c.points, points),
+            v_prev=jnp.where(failed, c.v_prev, c.v), last=jnp.where(retry, half, update),
+            halvings=jnp.where(retry, c.halvings + 1, 0), trips=c.trips + 1)
 
-    carry0 = {"v": v0, "it": jnp.zeros((), jnp.int32), "status": running, "converged": jnp.asarray(False),
-              "jac": jnp.full((n_v, n_v), jnp.nan, v0.dtype), "points": jnp.full((max_period, n_v), jnp.nan, v0.dtype),
-              "v_prev": v0, "last": jnp.zeros_like(v0), "halvings": jnp.zeros((), jnp.int32)}
-    out = jax.lax.while_loop(cond, body, carry0)
-    return out["v"], out["jac"], out["points"], out["status"]
+    c0 = _CycleNewton(v=v0, it=jnp.zeros((), jnp.int32), status=running, converged=jnp.asarray(False),
+                      jac=jnp.full((n_v, n_v), jnp.nan, v0.dtype), points=jnp.full((max_period, n_v), jnp.nan, v0.dtype),
+                      v_prev=v0, last=jnp.zeros_like(v0), halvings=jnp.zeros((), jnp.int32), trips=jnp.zeros((), jnp.int32))
+    out = jax.lax.while_loop(cond, body, c0)
+    return out.v, out.jac, out.points, out.status
 
 
 class _Polish(NamedTuple):
@@ -368,7 +392,7 @@ def grid_attractors(model: Walker, params: dict, gaits: dict, options) -> dict:
     Returns:
         The outputs :mod:`jaxwalk.analyses.attractors` declares, of shape ``S`` plus their trailing shape.
     """
-    from jaxwalk.batching import run_chunks as _run_chunks
+    from jaxwalk.batching import Rows, run_chunks as _run_chunks
 
     settings: AttractorOptions = options.attractors
     shape = gaits["status"].shape
@@ -386,10 +410,9 @@ def grid_attractors(model: Walker, params: dict, gaits: dict, options) -> dict:
     out["attractor_points"][:, 0] = np.asarray(gaits["fixed_point"]).reshape(-1, n_v)
     walk = np.flatnonzero((status == Status.OK) & ~(lam < 1.0))
     if walk.size:
-        rows = {k: np.asarray(v).reshape(-1)[walk] for k, v in params.items()}
-        for key, name in (("fixed_point", "__v__"), ("jacobian", "__jac__"), ("eigenvalues", "__eig__"), ("lambda_max", "__lam__")):
-            value = np.asarray(gaits[key])
-            rows[name] = value.reshape((-1,) + value.shape[len(shape):])[walk]
+        flat = lambda key: np.asarray(gaits[key]).reshape((-1,) + np.shape(gaits[key])[len(shape):])[walk]  # noqa: E731
+        period_one = PeriodOne(flat("fixed_point"), flat("jacobian"), flat("eigenvalues"), flat("lambda_max"))
+        rows = Rows({k: np.asarray(v).reshape(-1)[walk] for k, v in params.items()}, period_one)
         found = _run_chunks(_attractor_program(model, settings, options.solver, options.newton), rows, options.chunk_size, None)
         for key, field in (("attractor_status", "status"), ("attractor_period", "period"), ("attractor_lambda_max", "lambda_max"),
                            ("attractor_rate", "rate"), ("attractor_multipliers", "multipliers"), ("attractor_points", "points")):
@@ -401,18 +424,26 @@ def grid_attractors(model: Walker, params: dict, gaits: dict, options) -> dict:
     return {k: v.reshape(shape + v.shape[1:]) for k, v in out.items()}
 
 
+class PeriodOne(NamedTuple):
+    """The attractor program's input beside the parameters: the row's period-1 gait."""
+
+    v: Array  # (n_v,) fixed point
+    jacobian: Array  # (n_v, n_v) step-to-step Jacobian there
+    eigenvalues: Array  # (n_v,) complex, its eigenvalues
+    lambda_max: Array  # their largest modulus
+
+
 @functools.lru_cache(maxsize=None)
 def _attractor_program(model: Walker, settings: AttractorOptions, solver: SolverOptions, newton: NewtonOptions):
-    from jaxwalk.batching import in_sub_batches as _in_sub_batches
+    from jaxwalk.batching import over_rows
 
-    def one(p):
-        p = dict(p)
-        gait = Gait(v=p.pop("__v__"), jacobian=p.pop("__jac__"), eigenvalues=p.pop("__eig__"), lambda_max=p.pop("__lam__"),
+    def one(p, g: PeriodOne):
+        gait = Gait(v=g.v, jacobian=g.jacobian, eigenvalues=g.eigenvalues, lambda_max=g.lambda_max,
                     period=jnp.nan, step_length=jnp.nan, speed=jnp.nan, status=jnp.int8(Status.OK),
                     iterations=jnp.zeros((), jnp.int32), work=jnp.nan, cost_of_transport=jnp.nan,
                     stats=GaitStats(*(jnp.zeros((), jnp.int32),) * 3))
         return find_attractor(model, p, gait, settings, solver, newton)
 
-    program = jax.jit(lambda rows: _in_sub_batches(one, dict(rows), model.lockstep_batch))
+    program = jax.jit(over_rows(one, model.lockstep_batch))
     program_cache.register(program, "attractor", model, solver, newton, settings)
     return program

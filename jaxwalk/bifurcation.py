@@ -37,10 +37,10 @@ from typing import Mapping, NamedTuple
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Complex, Float, Int, Int8
+from jaxtyping import Array, Complex, Float, Int, Int8
 
 from jaxwalk.attractor import AttractorOptions, find_cycle, minimal_period, spectrum
-from jaxwalk.batching import in_sub_batches, run_chunks, sub_batch_size
+from jaxwalk.batching import Rows, over_rows, run_chunks, sub_batch_size
 from jaxwalk.gait import NewtonOptions
 from jaxwalk.status import Status
 from jaxwalk.step import SolverOptions
@@ -129,16 +129,21 @@ def _complex_pair_on_circle(mu: np.ndarray) -> bool:
 CALL_ROWS = 64
 
 
+class CycleGuess(NamedTuple):
+    """The re-solve's input beside the parameters: where Newton starts."""
+
+    v0: Array  # (n_v,) a point of the cycle, on the section
+
+
 @functools.lru_cache(maxsize=None)
 def _solver(model: Walker, k: int, solver: SolverOptions, newton: NewtonOptions):
-    """Batched Newton re-solve of the period-k cycle: rows of parameters and
-    ``__v0__`` -> ``(status, v, multipliers)``."""
+    """Batched Newton re-solve of the period-k cycle: :class:`~jaxwalk.batching.Rows`
+    (parameters, inputs :class:`CycleGuess`) -> ``(status, v, multipliers)``."""
 
     k_ = jnp.asarray(k, jnp.int32)
 
-    def one(row):
-        p = dict(row)
-        v0 = p.pop("__v0__")
+    def one(p, guess: CycleGuess):
+        v0 = guess.v0
         _, jac, points, status = find_cycle(model, p, v0, k_, k, solver, newton)
         eig, _ = spectrum(jnp.where(jnp.isfinite(jac).all(), jac, jnp.eye(v0.shape[0], dtype=v0.dtype)))
         # A fixed point of f^k that closes after fewer steps is a shorter cycle, not this branch's.
@@ -146,12 +151,12 @@ def _solver(model: Walker, k: int, solver: SolverOptions, newton: NewtonOptions)
         status = jnp.where((status == Status.OK) & shorter, jnp.int8(Status.CYCLE_NOT_FOUND), status)
         return status, points[0], eig
 
-    return jax.jit(lambda rows: in_sub_batches(one, rows, sub_batch_size(model, solver)))
+    return jax.jit(over_rows(one, sub_batch_size(model, solver)))
 
 
 def _evaluate(model, k, solver, newton, params: Mapping[str, np.ndarray], v0: np.ndarray):
     """Re-solve at a batch of parameter sets, :data:`CALL_ROWS` per call (one compiled shape)."""
-    rows = {**{k_: np.asarray(x, np.float64) for k_, x in params.items()}, "__v0__": np.asarray(v0, np.float64)}
+    rows = Rows({k_: np.asarray(x, np.float64) for k_, x in params.items()}, CycleGuess(np.asarray(v0, np.float64)))
     status, v, eig = run_chunks(_solver(model, k, solver, newton), rows, CALL_ROWS, None)
     return np.asarray(status), np.asarray(v), np.asarray(eig)
 

@@ -24,7 +24,7 @@ from jaxwalk import program_cache
 from jaxwalk.analyses.gait import OUTPUTS as GAIT_OUTPUTS
 from jaxwalk.attractor import AttractorOptions
 from jaxwalk.batching import sub_batch_size
-from jaxwalk.batching import in_sub_batches as _in_sub_batches, run_chunks as _run_chunks
+from jaxwalk.batching import Rows, over_rows, run_chunks as _run_chunks
 from jaxwalk.continuation import seed_index
 from jaxwalk.gait import Gait, NewtonOptions, find_gait
 from jaxwalk.lines import run_lines
@@ -71,10 +71,10 @@ def _independent_program(model: Walker, solver: SolverOptions, newton: NewtonOpt
     each sub-batch of neighbouring grid points (similar iteration and step
     counts) stops on its own."""
 
-    def one(p):
+    def one(p, _):
         return find_gait(model, p, model.initial_guess(p), solver, newton)
 
-    program = jax.jit(lambda p: _in_sub_batches(one, dict(p), sub_batch_size(model, solver)))
+    program = jax.jit(over_rows(one, sub_batch_size(model, solver)))
     program_cache.register(program, "independent", model, solver, newton)
     return program
 
@@ -211,7 +211,7 @@ def analyse_chunk(
     axes = list(grid)
     shape = tuple(len(np.atleast_1d(grid[a])) for a in axes)
     if continuation_axis is None:
-        rows = {k: v.reshape(-1) for k, v in params.items()}
+        rows = Rows({k: v.reshape(-1) for k, v in params.items()})
         program = _independent_program(model, options.solver, options.newton)
         gaits = _run_chunks(program, rows, options.chunk_size, progress)
         unflatten = lambda x: x.reshape(shape + x.shape[1:])

@@ -14,13 +14,14 @@ same compiled program: after a model's first run no sweep of it compiles again.
 from __future__ import annotations
 
 import functools
-from typing import Callable, Mapping
+from typing import Callable, Mapping, NamedTuple
 
 import jax
 import numpy as np
+from jaxtyping import Array, Bool
 
 from jaxwalk import program_cache
-from jaxwalk.batching import in_sub_batches, run_chunks, sub_batch_size
+from jaxwalk.batching import Rows, in_sub_batches, run_chunks, sub_batch_size
 from jaxwalk.continuation import LineCarry, continue_segment, visiting_order
 from jaxwalk.gait import Gait, NewtonOptions
 from jaxwalk.step import SolverOptions
@@ -32,35 +33,36 @@ SEGMENT_LENGTH = 64
 #: split over the threads when each gets two.
 MIN_LINES_PER_THREAD = 2
 
-_CARRY = LineCarry._fields
-_VALID = "__visit_valid__"
+class SegmentInputs(NamedTuple):
+    """A line's input to :func:`segment_program` beside its parameters (``(L,)``
+    arrays over the segment's ``L`` visits, one row per line in a call)."""
+
+    restart: Bool[Array, " L"]  # the visit starts again from the line's seed
+    first: Bool[Array, " L"]  # the segment's first visit
+    visit_valid: Bool[Array, " L"]  # a real visit, not padding; the same on every line
+    carry: LineCarry  # the line's state before the segment's first visit
 
 
 @functools.lru_cache(maxsize=None)
 def segment_program(model: Walker, solver: SolverOptions, newton: NewtonOptions):
     """One jitted program for every continuation line of a model and settings.
 
-    Its input is a dict of rows, one per line: each parameter, ``__restart__``
-    and ``__first__`` as ``(n_lines, L)`` arrays over the segment's visits,
-    :class:`~jaxwalk.continuation.LineCarry`'s fields as ``(n_lines, ...)``,
-    and ``__visit_valid__`` ``(n_lines, L)``, the same in every row (the
-    program reads row 0, so padding visits are skipped, not masked). It returns
-    ``(carry, gaits)`` with the same leading axis."""
+    Its input is :class:`~jaxwalk.batching.Rows`, one row per line: each
+    parameter as an ``(n_lines, L)`` array over the segment's visits, and
+    :class:`SegmentInputs` (the program reads ``visit_valid`` of row 0, so
+    padding visits are skipped, not masked). It returns ``(carry, gaits)`` with
+    the same leading axis."""
 
-    def line(rows, valid):
-        rows = dict(rows)
-        restart, first = rows.pop("__restart__"), rows.pop("__first__")
-        carry = LineCarry(*(rows.pop(name) for name in _CARRY))
-        return continue_segment(model, rows, restart, first, valid, carry, solver, newton)
+    def line(params, inputs: SegmentInputs, valid):
+        return continue_segment(model, params, inputs.restart, inputs.first, valid, inputs.carry, solver, newton)
 
-    def program(rows):
-        rows = dict(rows)
-        valid = rows.pop(_VALID)[0]
+    def program(rows: Rows):
+        valid = rows.inputs.visit_valid[0]
         # Lines in sub-batches of sub_batch_size(): a line waits at every visit for
         # the slowest line of its sub-batch (the flat-foot walker's hardest map
         # quarter ran 6x faster at 2 lines per sub-batch than at 8, 13x at 1:
         # benchmarks/README.md).
-        return in_sub_batches(lambda r: line(r, valid), rows, sub_batch_size(model, solver))
+        return in_sub_batches(lambda r: line(*r, valid), (rows.params, rows.inputs), sub_batch_size(model, solver), rows.valid)
 
     program = jax.jit(program)
     program_cache.register(program, "continuation", model, solver, newton)
@@ -100,13 +102,13 @@ def run_lines(
     n_lines, n = next(iter(lines.values())).shape
     segments, order = segment_inputs(model, lines, seed, starts)
     program = segment_program(model, solver, newton)
-    carry, pieces = {}, []
+    carry, pieces = None, []
     for rows in segments:
-        rows = {**rows, **carry}
-        real = int(rows[_VALID][0].sum())
+        if carry is not None:
+            rows = rows._replace(inputs=rows.inputs._replace(carry=carry))
+        real = int(rows.inputs.visit_valid[0].sum())
         done = None if progress is None else (lambda count, real=real: progress(count * real))
-        out_carry, gaits = run_chunks(program, rows, lines_per_call(chunk_size), done, MIN_LINES_PER_THREAD)
-        carry = dict(zip(_CARRY, out_carry))
+        carry, gaits = run_chunks(program, rows, lines_per_call(chunk_size), done, MIN_LINES_PER_THREAD)
         pieces.append(gaits)
     gaits = jax.tree_util.tree_map(lambda *xs: np.concatenate(xs, axis=1)[:, :n], *pieces)
     inverse = np.argsort(order)
@@ -115,7 +117,7 @@ def run_lines(
 
 def segment_inputs(
     model: Walker, lines: Mapping[str, np.ndarray], seed: int, starts: np.ndarray | None = None
-) -> tuple[list[dict[str, np.ndarray]], np.ndarray]:
+) -> tuple[list[Rows], np.ndarray]:
     """The rows of :func:`segment_program` for each segment of ``n_lines`` lines
     (arguments as :func:`run_lines`), every one holding the carry before the
     line's first visit (a run replaces it by the carry the segment before
@@ -125,22 +127,19 @@ def segment_inputs(
     padded = -(-n // SEGMENT_LENGTH) * SEGMENT_LENGTH
     visit_order = np.concatenate([order, np.full(padded - n, order[-1], order.dtype)])
     visits = {k: np.asarray(v, np.float64)[:, visit_order] for k, v in lines.items()}
-    per_visit = {
-        "__restart__": np.concatenate([restart, np.zeros(padded - n, bool)]),
-        "__first__": np.arange(padded) == 0,
-        _VALID: np.arange(padded) < n,
-    }
+    restart = np.concatenate([restart, np.zeros(padded - n, bool)])
+    first, visit_valid = np.arange(padded) == 0, np.arange(padded) < n
     carry = _initial_carry(model, n_lines, starts)
     segments = []
     for start in range(0, padded, SEGMENT_LENGTH):
         part = slice(start, start + SEGMENT_LENGTH)
-        rows = {name: v[:, part] for name, v in visits.items()}
-        rows.update({name: np.broadcast_to(v[part], (n_lines, SEGMENT_LENGTH)).copy() for name, v in per_visit.items()})
-        segments.append({**rows, **carry})
+        per_line = lambda v: np.broadcast_to(v[part], (n_lines, SEGMENT_LENGTH)).copy()  # noqa: E731
+        inputs = SegmentInputs(per_line(restart), per_line(first), per_line(visit_valid), carry)
+        segments.append(Rows({name: v[:, part] for name, v in visits.items()}, inputs))
     return segments, order
 
 
-def _initial_carry(model: Walker, n_lines: int, starts: np.ndarray | None) -> dict[str, np.ndarray]:
+def _initial_carry(model: Walker, n_lines: int, starts: np.ndarray | None) -> LineCarry:
     """:class:`LineCarry` rows before the first visit (``starts`` as in :func:`run_lines`)."""
     n_v = len(model.section_names)
     if starts is None:
@@ -148,4 +147,4 @@ def _initial_carry(model: Walker, n_lines: int, starts: np.ndarray | None) -> di
     starts = np.asarray(starts, np.float64).reshape(n_lines, n_v)
     have = np.isfinite(starts).all(axis=-1)
     v0 = np.where(have[:, None], starts, 0.0)
-    return {"v_prev": v0, "have_prev": have, "v_seed": v0.copy(), "have_seed": have.copy()}
+    return LineCarry(v_prev=v0, have_prev=have, v_seed=v0.copy(), have_seed=have.copy())

@@ -381,18 +381,23 @@ def constrained_accelerations(
         constraint, the ground's normal force on the foot, positive upward).
     """
     n_q = mass.shape[0]
-    n_c = sigma.shape[0]
     known = static_mask(mask)
     if known is not None:
-        active = np.flatnonzero(known)
-        kkt = _reduced_kkt(mass, sigma, active)
-        sol = solve(kkt, jnp.concatenate([forces, -psi[active]]))
-        lam = jnp.zeros(n_c, sol.dtype).at[active].set(sol[n_q:])
-        return sol[:n_q], lam
+        return _solve_on_active(mass, sigma, known, forces, -psi)
     kkt = _kkt_matrix(mass, sigma, mask)
     rhs = jnp.concatenate([forces, -psi * mask])
     sol = solve(kkt, rhs)
     return sol[:n_q], sol[n_q:]
+
+
+def _solve_on_active(mass, sigma, known: np.ndarray, top: Array, bottom: Array) -> tuple[Array, Array]:
+    """The KKT system ``[[M, -S_a^T], [S_a, 0]] (x, l_a) = (top, bottom_a)`` on the rows
+    ``known`` (a mask known when tracing) holds: ``x`` ``(n_q,)`` and the multipliers
+    ``(n_c,)``, zero at inactive rows."""
+    n_q, n_c = mass.shape[0], sigma.shape[0]
+    active = np.flatnonzero(known)
+    sol = solve(_reduced_kkt(mass, sigma, active), jnp.concatenate([top, bottom[active]]))
+    return sol[:n_q], jnp.zeros(n_c, sol.dtype).at[active].set(sol[n_q:])
 
 
 def impact(mass: Float[Array, "n_q n_q"], qd_minus: Float[Array, "n_q"], sigma: Float[Array, "n_c n_q"], mask: Float[ArrayLike, "n_c"]) -> tuple[Float[Array, "n_q"], Float[Array, "n_c"]]:
@@ -407,11 +412,7 @@ def impact(mass: Float[Array, "n_q n_q"], qd_minus: Float[Array, "n_q"], sigma: 
     n_c = sigma.shape[0]
     known = static_mask(mask)
     if known is not None:
-        active = np.flatnonzero(known)
-        kkt = _reduced_kkt(mass, sigma, active)
-        sol = solve(kkt, jnp.concatenate([mass @ qd_minus, jnp.zeros(len(active), qd_minus.dtype)]))
-        impulses = jnp.zeros(n_c, sol.dtype).at[active].set(sol[n_q:])
-        return sol[:n_q], impulses
+        return _solve_on_active(mass, sigma, known, mass @ qd_minus, jnp.zeros(n_c, qd_minus.dtype))
     kkt = _kkt_matrix(mass, sigma, mask)
     rhs = jnp.concatenate([mass @ qd_minus, jnp.zeros(n_c, qd_minus.dtype)])
     # Once per event, not per vector-field evaluation: the looped elimination

@@ -41,11 +41,30 @@ from jaxwalk.files import write_atomically
 from jaxwalk.gait import Gait, GaitStats
 from jaxwalk.stepdown import StepDownResult
 
+_serializable: set[type] = set()
+
+
 def serializable(output_type: type) -> type:
     """Let a grid program's NamedTuple output be saved in its exported form (a
-    class decorator for modules this one cannot import without a circle)."""
-    export.register_namedtuple_serialization(output_type, serialized_name=f"{output_type.__module__}.{output_type.__qualname__}")
+    class decorator for modules this one cannot import without a circle); a
+    type registered before is left as it is."""
+    if output_type not in _serializable:
+        export.register_namedtuple_serialization(output_type, serialized_name=f"{output_type.__module__}.{output_type.__qualname__}")
+        _serializable.add(output_type)
     return output_type
+
+
+def _inputs_serializable(args) -> None:
+    """Register every NamedTuple type in a program's input (its rows and their
+    declared inputs, :class:`jaxwalk.batching.Rows`), so each program declares
+    its input type once, where it is used, and the exporter can save it."""
+    if isinstance(args, tuple) and hasattr(args, "_fields"):
+        serializable(type(args))
+    if isinstance(args, dict):
+        args = list(args.values())
+    if isinstance(args, (tuple, list)):
+        for x in args:
+            _inputs_serializable(x)
 
 
 #: Output types of the grid programs, so that their exported form can be saved.
@@ -174,6 +193,7 @@ def lower(program, args):
         announce(program)
         return program.lower(args)
     path = root / f"{key}.jaxexport"
+    _inputs_serializable(args)  # before loading too: the saved form names them
     exported = _load(path)
     if exported is None:
         counts["traced"] += 1

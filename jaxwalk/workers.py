@@ -66,8 +66,9 @@ def compiled_shapes(program) -> list[tuple]:
         return [key[2] for key in _executables if key[0] is program]
 
 
-def run_on_threads(program, block: dict[str, np.ndarray], min_rows_per_thread: int):
-    """``program(block)`` as NumPy arrays, the rows split over one worker thread per CPU device.
+def run_on_threads(program, block, min_rows_per_thread: int):
+    """``program(block)`` as NumPy arrays, the rows (the leading axis of every
+    leaf of the pytree ``block``) split over one worker thread per CPU device.
 
     The threads share one compiled program (:func:`executable`) and each runs
     it on every n-th row, so the CPU device count (``XLA_FLAGS=
@@ -80,7 +81,7 @@ def run_on_threads(program, block: dict[str, np.ndarray], min_rows_per_thread: i
     0.45 ms per configuration this way (simplest walker, 2048 configurations,
     two cores; see benchmarks/README.md).
     """
-    n_rows = next(iter(block.values())).shape[0]
+    n_rows = jax.tree_util.tree_leaves(block)[0].shape[0]
     n_threads = thread_count()
     if n_threads == 1 or n_rows % n_threads or n_rows // n_threads < min_rows_per_thread:
         return jax.tree_util.tree_map(np.asarray, executable(program, block)(block))
@@ -88,7 +89,7 @@ def run_on_threads(program, block: dict[str, np.ndarray], min_rows_per_thread: i
     # Every n_threads-th row: neighbouring grid points cost about the same, so the
     # threads get equal work (contiguous halves of a slope sweep differ by ~15%
     # in steps and Newton iterations).
-    parts = [{k: v[i::n_threads] for k, v in block.items()} for i in range(n_threads)]
+    parts = [jax.tree_util.tree_map(lambda v, i=i: v[i::n_threads], block) for i in range(n_threads)]
     compiled = executable(program, parts[0])
     outs = list(_threads(n_threads).map(lambda part: jax.tree_util.tree_map(np.asarray, compiled(part)), parts))
     # Interleave back: row j came from thread j % n_threads.

@@ -1,8 +1,10 @@
-"""Lockstep sub-batches (``Walker.lockstep_batch``, ``grid._in_sub_batches``):
+"""Lockstep sub-batches (``Walker.lockstep_batch``, ``batching.in_sub_batches``):
 how many configurations a worker thread advances together must not change what each
 one computes."""
 
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -10,6 +12,7 @@ import numpy as np
 import pytest
 
 from jaxwalk import grid as G
+from jaxwalk.batching import Rows, in_sub_batches, over_rows, run_chunks
 from jaxwalk.models import get_model
 from jaxwalk.models.compass import CompassWalker
 
@@ -34,7 +37,7 @@ def test_sub_batches_equal_one_vmap(sub_batch):
     # 7 rows: every sub-batch size but 1 and 64 leaves a padded last sub-batch.
     params = {"a": jnp.asarray([2.0, 1e6, 0.5, 3.0, 1e-6, 7.0, 1e12])}
     whole = jax.jit(jax.vmap(_newton_sqrt))(params)
-    parts = jax.jit(lambda p: G._in_sub_batches(_newton_sqrt, p, sub_batch))(params)
+    parts = jax.jit(lambda p: in_sub_batches(_newton_sqrt, p, sub_batch))(params)
     for a, b in zip(whole, parts):
         np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
     assert len(set(np.asarray(whole[1]).tolist())) > 3  # the rows did take different trip counts
@@ -59,3 +62,30 @@ def test_continuation_one_line_at_a_time_equals_lines_together():
     ok = together["status"] == 0
     np.testing.assert_allclose(alone["fixed_point"][ok], together["fixed_point"][ok], rtol=0, atol=1e-9)
     np.testing.assert_allclose(alone["lambda_max"][ok], together["lambda_max"][ok], rtol=0, atol=1e-6)
+
+
+class _Scale(NamedTuple):
+    """A program's typed input beside the parameters (as the analyses declare theirs)."""
+
+    factor: jax.Array  # (n,) multiplies the parameter
+    offset: jax.Array  # (n, 2) added to both outputs' first
+
+
+def test_typed_inputs_travel_with_their_rows_through_chunks_padding_and_threads():
+    """``Rows(params, inputs)`` over :func:`run_chunks`: 11 rows in calls of 4 (the
+    last padded, then split over the worker threads) give every row its own
+    parameters and inputs, as one ``vmap`` over all rows does."""
+    n = 11
+    a = np.geomspace(1e-3, 1e9, n)
+    inputs = _Scale(np.linspace(0.5, 2.0, n), np.arange(2.0 * n).reshape(n, 2))
+
+    def one(p, s):
+        root, its = _newton_sqrt({"a": p["a"] * s.factor})
+        return root + s.offset[0], its
+
+    program = jax.jit(over_rows(one, 2))
+    root, its = run_chunks(program, Rows({"a": a}, inputs), 4, None)
+    expect_root, expect_its = jax.vmap(one)({"a": jnp.asarray(a)}, jax.tree_util.tree_map(jnp.asarray, inputs))
+    np.testing.assert_array_equal(root, np.asarray(expect_root))
+    np.testing.assert_array_equal(its, np.asarray(expect_its))
+    np.testing.assert_allclose(root - inputs.offset[:, 0], np.sqrt(a * inputs.factor), rtol=1e-13)

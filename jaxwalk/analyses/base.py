@@ -18,7 +18,7 @@ without JAX) and never import :mod:`jaxwalk.grid` or :mod:`jaxwalk.sweep`
 from __future__ import annotations
 
 import dataclasses
-from typing import Any, Callable, Mapping
+from typing import Any, Callable, Mapping, NamedTuple
 
 import numpy as np
 
@@ -72,25 +72,32 @@ class Block:
     def shape(self) -> tuple[int, ...]:
         return self.results["status"].shape
 
-    def rows_at_gaits(self) -> dict[str, np.ndarray]:
-        """One row per grid point: every parameter, and ``__v_star__`` ``(n_v,)`` its
-        fixed point (NaN where there is no gait)."""
+    def rows_at_gaits(self):
+        """One :class:`~jaxwalk.batching.Rows` row per grid point: every parameter,
+        and as inputs :class:`AtGait`, its fixed point (NaN where there is no gait)."""
+        from jaxwalk.batching import Rows
+
         v = np.asarray(self.gaits.v)
-        rows = {k: np.asarray(x).reshape(-1) for k, x in self.params.items()}
-        rows["__v_star__"] = v.reshape(-1, v.shape[-1])
-        return rows
+        return Rows({k: np.asarray(x).reshape(-1) for k, x in self.params.items()}, AtGait(v.reshape(-1, v.shape[-1])))
+
+
+class AtGait(NamedTuple):
+    """A program's input beside the parameters: the row's gait (:meth:`Block.rows_at_gaits`)."""
+
+    v_star: Any  # (n, n_v) fixed point on the section; NaN where there is no gait
 
 
 def row_program(one: Callable, sub_batch: int, kind: str, model, *settings):
-    """``jit``: rows -> ``one(row)`` for every row, ``sub_batch`` rows advancing together
-    (:func:`jaxwalk.batching.in_sub_batches`), named for the disk cache
-    (:func:`jaxwalk.program_cache.register`: ``kind``, the model, the settings it closes over)."""
+    """``jit``: :class:`~jaxwalk.batching.Rows` -> ``one(params, inputs)`` for every row,
+    ``sub_batch`` rows advancing together (:func:`jaxwalk.batching.over_rows`), named
+    for the disk cache (:func:`jaxwalk.program_cache.register`: ``kind``, the model,
+    the settings it closes over)."""
     import jax
 
     from jaxwalk import program_cache
-    from jaxwalk.batching import in_sub_batches
+    from jaxwalk.batching import over_rows
 
-    program = jax.jit(lambda rows: in_sub_batches(one, dict(rows), sub_batch))
+    program = jax.jit(over_rows(one, sub_batch))
     program_cache.register(program, kind, model, *settings)
     return program
 

@@ -183,8 +183,12 @@ class BasinAnalysis(Analysis):
                "basin_ray_radius": np.full(shape + (n_dir,), np.nan)}
         where = np.flatnonzero(codes.reshape(-1) == Status.OK)
         if where.size:
-            rows = {k: x[where] for k, x in block.rows_at_gaits().items()}
-            rows["__targets__"] = targets.reshape((-1,) + targets.shape[len(shape):])[where]
+            from jaxwalk.batching import Rows
+            from jaxwalk.global_stability.basin import BasinStart
+
+            at = block.rows_at_gaits()
+            start = BasinStart(at.inputs.v_star[where], targets.reshape((-1,) + targets.shape[len(shape):])[where])
+            rows = Rows({k: x[where] for k, x in at.params.items()}, start)
             found = block.run(_program(block.model, items, block.options.solver), rows)
             for key, field in (("basin_fraction", "fraction"), ("basin_fraction_error", "fraction_error"),
                                ("basin_radius", "radius"), ("basin_ray_radius", "ray_radius")):

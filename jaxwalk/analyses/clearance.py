@@ -42,9 +42,8 @@ def _program(model, solver, sub_batch: int):
     from jaxwalk.models.flatfoot.clearance import min_clearance
     from jaxwalk.step import step_map
 
-    def one(p):
-        v = p.pop("__v_star__")
-        _, res = step_map(model, v, p, solver)
+    def one(p, at):
+        _, res = step_map(model, at.v_star, p, solver)
         return min_clearance(res.ctx)
 
     return row_program(one, sub_batch, "min_clearance", model, solver)

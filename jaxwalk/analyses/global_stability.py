@@ -18,7 +18,7 @@ from typing import Annotated, Any, ClassVar, Mapping
 
 import numpy as np
 
-from jaxwalk.analyses.base import Analysis, Block, did_you_mean, row_program, switch
+from jaxwalk.analyses.base import Analysis, AtGait, Block, did_you_mean, row_program, switch
 from jaxwalk.configs import Distinct, Table, field
 from jaxwalk.outputs import Output
 
@@ -121,14 +121,12 @@ MFPT = (
 
 @functools.lru_cache(maxsize=None)
 def _gsn_program(model, indicators: tuple[str, ...], solver, sub_batch: int):
-    """Rows (parameters and ``__v__``) -> the gait sensitivity norm; one compiled
-    shape for every grid (:func:`jaxwalk.batching.run_chunks`)."""
+    """Rows (parameters, inputs :class:`~jaxwalk.analyses.base.AtGait`) -> the gait
+    sensitivity norm; one compiled shape for every grid (:func:`jaxwalk.batching.run_chunks`)."""
     from jaxwalk.global_stability.sensitivity_norm import gait_sensitivity_norm
 
-    def one(row):
-        p = dict(row)
-        v = p.pop("__v__")
-        return gait_sensitivity_norm(model, p, v, indicators, solver)
+    def one(p, at):
+        return gait_sensitivity_norm(model, p, at.v_star, indicators, solver)
 
     return row_program(one, sub_batch, "gait_sensitivity_norm", model, indicators, solver)
 
@@ -146,6 +144,8 @@ def grid_outputs(model, params: Mapping[str, np.ndarray], gaits, status: np.ndar
     """
     import jax.numpy as jnp
 
+    from jaxwalk.batching import Rows
+
     shape = status.shape
     rows = {k: jnp.asarray(np.asarray(v).reshape(-1)) for k, v in params.items()}
     v = np.asarray(gaits.v).reshape(-1, np.asarray(gaits.v).shape[-1])
@@ -157,7 +157,8 @@ def grid_outputs(model, params: Mapping[str, np.ndarray], gaits, status: np.ndar
 
             run = lambda program, rows_: run_chunks(program, rows_, 256, None)  # noqa: E731
         program = _gsn_program(model, tuple(options.gait_sensitivity), solver, sub_batch)
-        gsn = np.asarray(run(program, {**{k: np.asarray(x) for k, x in rows.items()}, "__v__": np.where(ok[:, None], v, 0.0)}))
+        at = AtGait(np.where(ok[:, None], v, 0.0))
+        gsn = np.asarray(run(program, Rows({k: np.asarray(x) for k, x in rows.items()}, at)))
         out["gait_sensitivity_norm"] = np.where(ok, gsn, np.nan).reshape(shape)
     if options.mfpt is not None:
         from jaxwalk.global_stability.mfpt import MFPTOptions, mfpt

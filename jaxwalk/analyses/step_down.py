@@ -69,9 +69,8 @@ OUTPUTS = (
 def _program(model, solver, step_down, sub_batch: int):
     from jaxwalk.stepdown import h_max
 
-    def one(p):
-        v = p.pop("__v_star__")
-        return h_max(model, p, v, step_down, solver)
+    def one(p, at):
+        return h_max(model, p, at.v_star, step_down, solver)
 
     # Every drop of every step in lockstep across a sub-batch.
     return row_program(one, sub_batch, "step_down", model, solver, step_down)

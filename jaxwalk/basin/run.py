@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import functools
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import xarray as xr
@@ -51,29 +52,35 @@ def starts_grid(config: BasinConfig, v_star: np.ndarray) -> tuple[np.ndarray, np
     return xs, ys, starts
 
 
+class FateStart(NamedTuple):
+    """The input of the fate program beside the parameters, one start per row."""
+
+    v: np.ndarray  # (n, n_v) the start on the section
+    target: np.ndarray  # (n, n_v) the gait returned to
+    scale: np.ndarray  # (n, n_v) the section's scale of distance
+
+
 @functools.lru_cache(maxsize=None)
 def _fate_program(model, options, solver):
     from jaxwalk.analyses.base import row_program
     from jaxwalk.global_stability.basin import fate
 
-    def one(row):
-        p = dict(row)
-        v, target, scale = p.pop("__v__"), p.pop("__target__"), p.pop("__scale__")
-        return fate(model, p, v, target[None], scale, options, solver)
+    def one(p, start: FateStart):
+        return fate(model, p, start.v, start.target[None], start.scale, options, solver)
 
     return row_program(one, model.lockstep_batch, "basin_fate", model, options, solver)
 
 
 def walk_starts(config: BasinConfig, model, params, v_star: np.ndarray, starts: np.ndarray, solver):
     """:class:`~jaxwalk.global_stability.basin.Fate` of every start (NumPy leaves)."""
-    from jaxwalk.batching import run_chunks
+    from jaxwalk.batching import Rows, run_chunks
     from jaxwalk.global_stability.basin import BasinOptions
 
     options = BasinOptions(steps=config.steps, tol=config.tol)
     program = _fate_program(model, options, solver)
     n = len(starts)
-    rows = {k: np.full(n, float(v)) for k, v in params.items()}
-    rows.update(__v__=starts, __target__=np.repeat(v_star[None], n, 0), __scale__=np.repeat(np.asarray(config.scale)[None], n, 0))
+    start = FateStart(starts, np.repeat(v_star[None], n, 0), np.repeat(np.asarray(config.scale)[None], n, 0))
+    rows = Rows({k: np.full(n, float(v)) for k, v in params.items()}, start)
     return run_chunks(program, rows, 4096, None)
 
 

@@ -178,6 +178,13 @@ class Basin(NamedTuple):
     sample_status: Array
 
 
+class BasinStart(NamedTuple):
+    """The input of :func:`basin_program` beside the parameters (``(n, ...)`` under it)."""
+
+    v_star: Array  # (n_v,) the gait's fixed point
+    targets: Array  # (P, n_v) the cycle returned to (NaN rows ignored)
+
+
 def basin(model: Walker, params, v_star: Array, targets: Array, options: BasinOptions,
           solver: SolverOptions = SolverOptions()) -> Basin:
     """The basin fraction and ray radii of the gait at ``v_star`` (one configuration; vmap
@@ -213,13 +220,11 @@ def basin(model: Walker, params, v_star: Array, targets: Array, options: BasinOp
 
 @functools.lru_cache(maxsize=None)
 def basin_program(model: Walker, options: BasinOptions, solver: SolverOptions):
-    """``jit``: rows (parameters, ``__v_star__`` ``(n, n_v)``, ``__targets__`` ``(n, P, n_v)``)
+    """``jit``: :class:`~jaxwalk.batching.Rows` (parameters, inputs :class:`BasinStart`)
     -> :class:`Basin` of each row, one row at a time (its walks are the batch)."""
     from jaxwalk.analyses.base import row_program
 
-    def one(row):
-        p = dict(row)
-        v, targets = p.pop("__v_star__"), p.pop("__targets__")
-        return basin(model, p, v, targets, options, solver)
+    def one(p, start: BasinStart):
+        return basin(model, p, start.v_star, start.targets, options, solver)
 
     return row_program(one, 1, "basin", model, options, solver)

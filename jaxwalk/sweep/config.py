@@ -281,6 +281,9 @@ def _check_size(axis_specs, n_v, max_points, fail, settings: Mapping[str, Any]) 
 
 
 def _analysis(table, names, fail) -> tuple[bool, str | None, str | None, dict[str, float | int]]:
+    # [analysis] is shared: the gait's, the solver's and every plug-in's Table
+    # each pick their own keys from it (Table.pick ignores the others), so a key
+    # that none of them declares is refused here, against their union.
     for key in table:
         if key not in ANALYSIS_KEYS:
             raise fail(f"[analysis]: unknown key '{key}'{_did_you_mean(key, ANALYSIS_KEYS)} (allowed: {', '.join(ANALYSIS_KEYS)})")
