@@ -28,6 +28,7 @@ than LAPACK called per batch element, and has no LAPACK call to block on.
 
 from __future__ import annotations
 
+import math
 from typing import Callable
 
 import jax
@@ -53,6 +54,36 @@ def second_derivative_along(fn: Callable[[Float[Array, "n_q"]], Float[Array, "*m
     """
     first = lambda q_: jax.jvp(fn, (q_,), (qd,))[1]
     return jax.jvp(first, (q,), (qd,))[1]
+
+
+#: Largest ``n_q`` times the point masses' coordinates (``2 n_points``) for
+#: which the mass matrix, the forces and the constraint Jacobian are written
+#: entry by entry. The two forms trade program size against batched speed, both
+#: measured on 2 CPU cores (benchmarks/README.md, "Dynamics by size"):
+#: entry by entry, each entry a scalar (under ``vmap`` a vector over the batch),
+#: the simplest and compass walkers' gait searches run 1.5-2.9x faster at batch
+#: 64 than from stacked Jacobians, but the program grows as ``n_q^2 n_points``;
+#: the flat-foot walker (6 x 22 = 132, run one configuration at a time) then
+#: took 212 s to trace and compile its gait search, against 54 s stacked, and
+#: ran 1.1x slower.
+ENTRYWISE_MAX = 64
+
+
+def entrywise(n_q: int, n_coordinates: int) -> bool:
+    """Whether a system of ``n_q`` coordinates and ``n_coordinates`` point-mass
+    coordinates builds its dynamics entry by entry (:data:`ENTRYWISE_MAX`)."""
+    return n_q * n_coordinates <= ENTRYWISE_MAX
+
+
+def jacobian(fn: Callable[[Float[Array, "n_q"]], Float[Array, "*m"]], q: Float[Array, "n_q"],
+             by_entries: bool) -> Float[Array, "n_q *m"]:
+    """``d fn / d q_k`` stacked on a leading axis ``k``: ``n_q`` separate ``jvp`` calls
+    (``by_entries``, :func:`jacobian_columns`) or one ``jvp`` vmapped over the
+    basis (the program holds ``fn``'s derivative once, whatever ``n_q``)."""
+    if by_entries:
+        return jnp.stack(jacobian_columns(fn, q))
+    basis = jnp.eye(q.shape[0], dtype=q.dtype)
+    return jax.vmap(lambda e: jax.jvp(fn, (q,), (e,))[1])(basis)
 
 
 def jacobian_columns(fn: Callable[[Float[Array, "n_q"]], Float[Array, "*m"]], q: Float[Array, "n_q"]) -> list[Float[Array, "*m"]]:
@@ -96,8 +127,18 @@ def mass_matrix(points: Callable[[Float[Array, "n_q"]], Float[Array, "n_points 2
         masses: ``(n_points,)`` masses.
         q: ``(n_q,)`` generalized coordinates.
     """
+    n_coordinates = math.prod(jax.eval_shape(points, q).shape)
+    if not entrywise(q.shape[0], n_coordinates):
+        return _stacked_mass(jacobian(points, q, False), masses)
     entries, weights = _weighted_products(jacobian_columns(points, q), masses)
     return _mass_from_columns(entries, weights)
+
+
+def _stacked_mass(t: Float[Array, "n_q n_points 2"], masses: Float[Array, "n_points"]) -> Float[Array, "n_q n_q"]:
+    """``sum_i m_i T_i^T T_i`` from the stacked Jacobian, as one product and sum
+    (no ``dot``: under ``vmap`` on CPU a broadcast product fuses into one loop)."""
+    weighted = t * masses[None, :, None]
+    return jnp.sum(weighted[:, None] * t[None, :], axis=(-2, -1))
 
 
 def mass_matrix_and_forces(
@@ -107,12 +148,17 @@ def mass_matrix_and_forces(
     ``F_r = sum_i T_i^T m_i (g - Tdot_i qd)`` (eq. 7), ``(n_q,)``, sharing one
     Jacobian of ``points``; joint torques are added by the caller.
 
-    Written entry by entry (each entry a scalar, a vector over the batch under
-    ``vmap``): on CPU this is several times faster than ``einsum`` over the
-    stacked Jacobian, and the same sums up to their order.
+    Small systems (:func:`entrywise`) are written entry by entry (each entry a
+    scalar, a vector over the batch under ``vmap``: on CPU faster than products
+    of the stacked Jacobian); larger ones from the stacked Jacobian, whose
+    program does not grow with ``n_q``. The same sums up to their order.
     """
-    entries, weights = _weighted_products(jacobian_columns(points, q), masses)
     convective = second_derivative_along(points, q, qd)
+    if not entrywise(q.shape[0], convective.size):
+        t = jacobian(points, q, False)
+        per_point = masses[:, None] * (gravity[None, :] - convective)
+        return _stacked_mass(t, masses), jnp.sum(t * per_point[None], axis=(-2, -1))
+    entries, weights = _weighted_products(jacobian_columns(points, q), masses)
     n_p = masses.shape[0]
     convective = convective.reshape(n_p, -1)
     dim = convective.shape[1]

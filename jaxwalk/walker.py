@@ -44,6 +44,7 @@ model against the same properties.
 
 from __future__ import annotations
 
+import math
 from typing import Callable, Mapping, NamedTuple
 
 import jax
@@ -264,9 +265,12 @@ class Walker:
         return y[: self.n_q], y[self.n_q :]
 
     def constraint_terms(self, q: Array, qd: Array, params: Params, ctx: Array) -> tuple[Array, Array]:
-        """``Sigma`` ``(n_c, n_q)`` and ``Psi`` ``(n_c,)`` (paper eqs. 3-4)."""
+        """``Sigma`` ``(n_c, n_q)`` and ``Psi`` ``(n_c,)`` (paper eqs. 3-4); ``Sigma``
+        in the form the walker's mass matrix takes (:func:`mechanics.entrywise`,
+        decided by the point masses, so one walker builds all its dynamics alike)."""
         xi = lambda q_: self.constraints(q_, params, ctx)
-        sigma = jnp.stack(mechanics.jacobian_columns(xi, q), axis=1)
+        n_coordinates = math.prod(jax.eval_shape(lambda q_: self.points(q_, params), q).shape)
+        sigma = mechanics.jacobian(xi, q, mechanics.entrywise(self.n_q, n_coordinates)).T
         return sigma, mechanics.second_derivative_along(xi, q, qd)
 
     def dynamics(self, y: Float[Array, "2*n_q"], params: Params, phase: Int32[ArrayLike, ""], ctx: Float[Array, "n_ctx"]) -> tuple[Float[Array, "n_q"], Float[Array, "n_constraints"]]:
