@@ -84,6 +84,15 @@ def _min_guard(model: Walker, params, t, y, phase, ctx, offsets):
     return jnp.min(model.guard_values(t, y, params, phase, ctx) + offsets)
 
 
+def _phase_start(model: Walker, params, t, y, phase, ctx, opts: SolverOptions):
+    """``(g, offsets)`` of a phase starting at ``(t, y)``: its smallest guard (offsets
+    added) and its :func:`~jaxwalk.stepbase.guard_offsets`, from one evaluation of
+    the guards (a dynamics solve for the flat-foot walker) shared by both."""
+    g0 = model.guard_values(t, y, params, phase, ctx)
+    offsets = guard_offsets(g0, opts)
+    return jnp.min(g0 + offsets), offsets
+
+
 def locate_event(guard, lower, upper, g_lower, g_upper, iterations: int, tol: float):
     """Root of ``guard`` in ``[lower, upper]``, where ``g_lower = guard(lower) > 0 >= g_upper``.
 
@@ -175,8 +184,7 @@ def _close_phase(model: Walker, params, opts: SolverOptions, c: _Carry, go_on: _
     """A lane whose phase ended at ``(t_ev, y_ev)`` with diffrax ``result``: the
     reset, the statuses, and a fresh start of the next phase from ``go_on``."""
     end = close_phase(model, params, t_ev, y_ev, result, c.phase, c.ctx, c.n_events, opts, c.offsets)
-    offsets = guard_offsets(model, params, end.t_event, end.y_next, end.phase_next, end.ctx_next, opts)
-    g = _min_guard(model, params, end.t_event, end.y_next, end.phase_next, end.ctx_next, offsets)
+    g, offsets = _phase_start(model, params, end.t_event, end.y_next, end.phase_next, end.ctx_next, opts)
     one = jnp.ones((), c.t.dtype)
     return go_on._replace(
         t=end.t_event,
@@ -275,14 +283,14 @@ def run_step_flat(model: Walker, params: Params, y0: Float[Array, "2*n_q"], phas
     phase0 = jnp.asarray(phase0, jnp.int32)
     zero = jnp.zeros((), dtype)
     one = jnp.ones((), dtype)
-    offsets0 = guard_offsets(model, params, zero, y0, phase0, ctx0, opts)
+    g0, offsets0 = _phase_start(model, params, zero, y0, phase0, ctx0, opts)
     carry0 = _Carry(
         t=zero,
         dt=jnp.full((), FIRST_STEP, dtype),
         y=y0,
         phase=phase0,
         ctx=ctx0,
-        g=_min_guard(model, params, zero, y0, phase0, ctx0, offsets0),
+        g=g0,
         offsets=offsets0,
         fresh=jnp.asarray(True),
         f0=jnp.zeros_like(y0),

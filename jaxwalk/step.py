@@ -28,14 +28,31 @@ from jaxwalk.stepbase import PhaseEnd, SolverOptions, StepResult, close_phase, g
 from jaxwalk.walker import Params, Walker
 
 
-def solve_phase(model: Walker, params, y, phase, ctx, t0, opts: SolverOptions, dense: bool = False):
+def start_guards(model: Walker, params, t0, y0, phase, ctx) -> Float[Array, "n_guards"]:
+    """``(n_guards,)`` guard values at the start ``(t0, y0)`` of ``phase``, without tangents.
+
+    Evaluated once per phase and shared by :func:`solve_phase` (the phase's
+    :func:`guard_offsets`) and :func:`end_phase` (the same offsets, and the test
+    for an event at the phase's start): the flat-foot walker's guards solve its
+    constrained dynamics, and each evaluation under ``jvp`` is some 14,000
+    lines of the step's program. Only signs and comparisons of these values are
+    used, so their tangents would be dead code.
+    """
+    return jax.lax.stop_gradient(model.guard_values(t0, y0, params, phase, ctx))
+
+
+def solve_phase(model: Walker, params, y, phase, ctx, t0, g0: Float[Array, "n_guards"], opts: SolverOptions,
+                dense: bool = False):
     """Integrate ``phase`` from ``t0`` until an event or the time limit.
+
+    Args:
+        g0: ``(n_guards,)`` guard values at ``(t0, y)`` (:func:`start_guards`).
 
     Returns the diffrax ``Solution`` (saved at its end; with ``dense=True`` also
     its interpolation, which the recorder of ``jaxwalk simulate`` samples).
     """
     term = diffrax.ODETerm(model.vector_field)
-    offsets = guard_offsets(model, params, t0, y, phase, ctx, opts)
+    offsets = guard_offsets(g0, opts)
 
     def smallest_guard(t, y, args, **kwargs):
         return jnp.min(model.guard_values(t, y, *args) + offsets)
@@ -64,19 +81,21 @@ def solve_phase(model: Walker, params, y, phase, ctx, t0, opts: SolverOptions, d
     return sol
 
 
-def _solve_phase(model: Walker, params, y, phase, ctx, t0, opts: SolverOptions):
+def _solve_phase(model: Walker, params, y, phase, ctx, t0, g0, opts: SolverOptions):
     """End time, end state and diffrax result of :func:`solve_phase`, and its
     solver steps (accepted and rejected)."""
-    sol = solve_phase(model, params, y, phase, ctx, t0, opts)
+    sol = solve_phase(model, params, y, phase, ctx, t0, g0, opts)
     return (sol.ts[-1], sol.ys[-1], sol.result), jnp.asarray(sol.stats["num_steps"], jnp.int32)
 
 
-def end_phase(model: Walker, params, t0, y0, phase, ctx, solved, n_events, opts: SolverOptions) -> PhaseEnd:
+def end_phase(model: Walker, params, t0, y0, phase, ctx, g0, solved, n_events, opts: SolverOptions) -> PhaseEnd:
     """The event that ended a phase started at ``(t0, y0, phase, ctx)``, the model's
     reset and the status rules: the body of :func:`run_step`'s loop after the solve,
     shared with the recorder (:mod:`jaxwalk.simulate.recorder`).
 
     Args:
+        g0: ``(n_guards,)`` guard values at ``(t0, y0)`` (:func:`start_guards`),
+            the ones the phase's solve was given.
         solved: ``(t_event, y_event, result)`` of the phase's ``diffeqsolve`` (:func:`_solve_phase`).
         n_events: events in the step before this one.
     """
@@ -87,11 +106,11 @@ def end_phase(model: Walker, params, t0, y0, phase, ctx, solved, n_events, opts:
     # large drop, a knee that must already pull). The margin keeps a guard
     # that ended the previous phase (zero to root-finding accuracy) quiet; the
     # solve watched it lifted by guard_offsets, so it hid no other guard.
-    at_start = jnp.min(model.guard_values(t0, y0, params, phase, ctx)) < -opts.start_guard_margin
+    at_start = jnp.min(g0) < -opts.start_guard_margin
     t_event = jnp.where(at_start, t0, t_event)
     y_event = jnp.where(at_start, y0, y_event)
     result = diffrax.RESULTS.where(at_start, diffrax.RESULTS.event_occurred, result)
-    offsets = guard_offsets(model, params, t0, y0, phase, ctx, opts)
+    offsets = guard_offsets(g0, opts)
     return close_phase(model, params, t_event, y_event, result, phase, ctx, n_events, opts, offsets)
 
 
@@ -132,8 +151,9 @@ def run_step(model: Walker, params: Params, y0: Float[Array, "2*n_q"], phase0: I
         return (c.status == in_progress) & (c.n_events < opts.max_events)
 
     def body(c: _PhaseLoop) -> _PhaseLoop:
-        solved, ode_steps = _solve_phase(model, params, c.y, c.phase, c.ctx, c.t, opts)
-        end = end_phase(model, params, c.t, c.y, c.phase, c.ctx, solved, c.n_events, opts)
+        g0 = start_guards(model, params, c.t, c.y, c.phase, c.ctx)
+        solved, ode_steps = _solve_phase(model, params, c.y, c.phase, c.ctx, c.t, g0, opts)
+        end = end_phase(model, params, c.t, c.y, c.phase, c.ctx, g0, solved, c.n_events, opts)
         # Work over the phase, from its start to the event (before the reset,
         # which may relabel the legs); impacts do not move the joints.
         work = c.work + model.actuator_work(c.y, end.y_event, params)

@@ -152,9 +152,15 @@ class PhaseEnd(NamedTuple):
     n_events: Int32[Array, ""]
 
 
-def guard_offsets(model: Walker, params: Params, t0: Float[Array, ""], y0: Float[Array, "2*n_q"], phase: Int32[Array, ""],
-                  ctx: Float[Array, "n_ctx"], opts: SolverOptions) -> Float[Array, "n_guards"]:
-    """``(n_guards,)`` added to the guards while the phase started at ``(t0, y0)`` runs.
+def guard_offsets(g0: Float[Array, "n_guards"], opts: SolverOptions) -> Float[Array, "n_guards"]:
+    """``(n_guards,)`` added to the guards while a phase runs, from ``g0``, the
+    ``(n_guards,)`` guard values at the phase's start (``model.guard_values(t0, y0,
+    params, phase, ctx)``).
+
+    The engines evaluate ``g0`` once per phase and share it (here, the test for an
+    event at the phase's start, and the flat engine's first smallest guard): each
+    evaluation of the guards may be a full dynamics solve (the flat-foot walker's
+    contact forces), and a repeated one is as many more lines of program to compile.
 
     A phase watches the smallest guard for a crossing from positive to
     non-positive. A guard that starts at zero's rounding error below zero (the
@@ -165,9 +171,10 @@ def guard_offsets(model: Walker, params: Params, t0: Float[Array, ""], y0: Float
     (``TIMEOUT`` at 180 points of a flat-foot map). Lifting such a guard by twice
     ``start_guard_margin`` starts every guard positive; it can fire again in the
     phase once it falls below ``-2 margin``. Guards already below ``-margin`` are
-    left as they are: they are the events at the phase's start.
+    left as they are: they are the events at the phase's start. The offsets are
+    constants (no tangent): only ``g0``'s signs decide them.
     """
-    g0 = jax.lax.stop_gradient(model.guard_values(t0, y0, params, phase, ctx))
+    g0 = jax.lax.stop_gradient(g0)
     just_fired = (g0 <= 0.0) & (g0 >= -opts.start_guard_margin)
     return jnp.where(just_fired, 2.0 * opts.start_guard_margin, 0.0).astype(g0.dtype)
 

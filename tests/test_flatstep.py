@@ -123,12 +123,8 @@ def test_guard_offsets_lift_only_the_guards_that_just_fired():
     an event at the start and is left alone, and a positive one is not moved."""
     from jaxwalk.stepbase import SolverOptions, guard_offsets
 
-    class Guards:
-        def guard_values(self, t, y, params, phase, ctx):
-            return jnp.array([0.5, -6e-17, 0.0, -1e-3, -5e-10])
-
     opts = SolverOptions()
-    off = np.asarray(guard_offsets(Guards(), None, 0.0, None, 0, None, opts))
+    off = np.asarray(guard_offsets(jnp.array([0.5, -6e-17, 0.0, -1e-3, -5e-10]), opts))
     m = opts.start_guard_margin
     np.testing.assert_array_equal(off, [0.0, 2 * m, 2 * m, 0.0, 2 * m])
     lifted = np.array([0.5, -6e-17, 0.0, -1e-3, -5e-10]) + off

@@ -88,12 +88,13 @@ def _compiled(model: Walker, opts):
     """Jitted pieces of the recorder for one model and solver settings."""
     import jax
 
-    from jaxwalk.step import end_phase, solve_phase
+    from jaxwalk.step import end_phase, solve_phase, start_guards
 
     def advance(params, y, phase, ctx, t0, n_events):
-        sol = solve_phase(model, params, y, phase, ctx, t0, opts, dense=True)
+        g0 = start_guards(model, params, t0, y, phase, ctx)
+        sol = solve_phase(model, params, y, phase, ctx, t0, g0, opts, dense=True)
         solved = (sol.ts[-1], sol.ys[-1], sol.result)
-        return end_phase(model, params, t0, y, phase, ctx, solved, n_events, opts), sol.interpolation
+        return end_phase(model, params, t0, y, phase, ctx, g0, solved, n_events, opts), sol.interpolation
 
     def sample(interp, ts, params, phase, ctx):
         ys = jax.vmap(interp.evaluate)(ts)
