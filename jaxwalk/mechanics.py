@@ -61,11 +61,11 @@ def second_derivative_along(fn: Callable[[Float[Array, "n_q"]], Float[Array, "*m
 #: entry by entry. The two forms trade program size against batched speed, both
 #: measured on 2 CPU cores (benchmarks/README.md, "Dynamics by size"):
 #: entry by entry, each entry a scalar (under ``vmap`` a vector over the batch),
-#: the simplest and compass walkers' gait searches run 1.5-2.9x faster at batch
+#: the simplest and compass walkers' gait searches run 2-3x faster at batch
 #: 64 than from stacked Jacobians, but the program grows as ``n_q^2 n_points``;
 #: the flat-foot walker (6 x 22 = 132, run one configuration at a time) then
-#: took 212 s to trace and compile its gait search, against 54 s stacked, and
-#: ran 1.1x slower.
+#: took 200 s to trace and compile its gait search, against 64 s stacked, and
+#: ran 1.35x slower.
 ENTRYWISE_MAX = 64
 
 
