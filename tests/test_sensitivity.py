@@ -129,20 +129,24 @@ def test_failed_gait_gives_status_and_nan_derivatives(sens):
 @pytest.mark.slow
 @pytest.mark.skipif(
     not os.environ.get("JAXWALK_FLATFOOT_GRADIENT"),
-    reason="tracing and compiling the flat-foot walker's second-order program takes ~25 min on two cores; "
-    "set JAXWALK_FLATFOOT_GRADIENT=1 to run",
+    reason="tracing and compiling the flat-foot walker's second-order program takes about 5 min on two cores "
+    "(benchmarks/README.md); set JAXWALK_FLATFOOT_GRADIENT=1 to run",
 )
 def test_flatfoot_lambda_max_fixed_point_and_cost_of_transport():
     """The flat-foot walker at its defaults: d/dr of lambda_max, v* and the cost of
     transport against central differences of converged gaits (one device:
     batched LAPACK from two device threads has deadlocked for this walker).
 
-    Measured (h = 1e-4, r = 0.39, 0.40, 0.41, 0.42): lambda_max 6.93950 against
-    6.94006 at r = 0.4 (at most 8e-5 relative over the four), v* to 3e-6
-    relative, cost of transport to 4e-4 relative (6e-6 at r = 0.4)."""
+    The step h = 1e-3 is where central differences of the converged gaits settle
+    (2026-12-02, r = 0.4: d CoT/dr 1.035403e-4, 1.034942e-4, 1.034934e-4,
+    1.033985e-4, 1.030864e-4 at h = 3e-3, 1e-3, 3e-4, 1e-4, 3e-5; forward mode
+    1.034975e-4): below it the gaits' integration noise divided by 2h takes over
+    (at h = 1e-4 the difference quotient of the cost of transport was off by
+    1.6e-3 relative), above it the truncation error. Forward mode's d lambda_max/dr
+    6.93939 against 6.93992 (h = 1e-3) and 6.93917 (h = 3e-4)."""
     model = get_model("flatfoot")
     d = model.default_params()
-    h = 1e-4
+    h = 1e-3
     # Four configurations, like the four foot lengths of results/optimize: one compiled program.
     r = d["r"] + np.array([0.0, -h, h, 0.0])
     params = {k: jnp.full(r.shape, v) for k, v in d.items()}
