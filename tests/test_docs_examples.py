@@ -96,7 +96,7 @@ def test_every_python_example_runs(workdir, monkeypatch):
     ran = 0
     for name, text in examples("python"):
         # Walks and optimisations (minutes; their commands' configs are checked above)
-        # and the flat-foot walker's gait (docs/model.md: minutes to compile).
+        # and the flat-foot walker's gait (about a minute to trace and compile).
         if any(s in text for s in ("simulate", "optimize(", "FlatFootWalker")):
             continue
         namespace = namespaces.setdefault(name, {})
