@@ -52,6 +52,8 @@ import scipy.sparse
 import scipy.sparse.linalg
 from scipy.special import ndtr
 
+from jaxwalk import program_cache
+from jaxwalk.batching import Rows, over_rows, run_chunks, sub_batch_size
 from jaxwalk.global_stability.sensitivity_norm import linearise, observability_gramian
 from jaxwalk.status import Status
 from jaxwalk.step import SolverOptions, step_map
@@ -134,18 +136,31 @@ def terrain_samples(sigma: float, samples: int) -> tuple[np.ndarray, np.ndarray]
     return sigma * mid, np.diff(cdf)
 
 
+class Transition(NamedTuple):
+    """The input of the transition program beside the parameters, one step per row."""
+
+    v: np.ndarray  # (n, n_v) section state before the step
+    drop: np.ndarray  # (n,) the step's ground drop (model length units)
+
+
+#: Steps per call of the transition program: every mesh (fine, coarse, any
+#: ``mesh`` and ``samples``) runs in calls of this one shape, so one compile
+#: serves them all (:func:`jaxwalk.batching.run_chunks`; the padding of the last
+#: call costs at most one sub-batch).
+CALL_ROWS = 4096
+
+
 @functools.lru_cache(maxsize=None)
 def _step_program(model: Walker, solver: SolverOptions):
-    def one(p, v, e):
-        v_next, res = step_map(model, v, p, solver, ground_drop=e)
+    # Sub-batches of the engine's sub-batch size: a failing step (a fall, a
+    # timeout) costs many normal ones, and holds up only its own sub-batch.
+    def one(p, t: Transition):
+        v_next, res = step_map(model, t.v, p, solver, ground_drop=t.drop)
         return v_next, res.status
 
-    # Sub-batches of the model's lockstep batch: a failing step (a fall, a
-    # timeout) costs many normal ones, and holds up only its own sub-batch.
-    def program(p, v, e):
-        return jax.lax.map(lambda ve: one(p, *ve), (v, e), batch_size=model.lockstep_batch)
-
-    return jax.jit(program)
+    program = jax.jit(over_rows(one, sub_batch_size(model, solver)))
+    program_cache.register(program, "mfpt_transitions", model, solver)
+    return program
 
 
 @functools.lru_cache(maxsize=None)
@@ -186,9 +201,10 @@ def _chain(model: Walker, params, lin_J, lin_B, v_star, options: MFPTOptions, po
     mesh = principal_mesh(lin_J, lin_B, v_star, options, points)
     states = mesh_states(mesh)
     drops, weights = terrain_samples(options.sigma, samples)
-    v = np.repeat(states, len(drops), axis=0)
-    e = np.tile(drops, len(states))
-    v_next, status = _step_program(model, solver)(params, jnp.asarray(v), jnp.asarray(e))
+    n = len(states) * len(drops)
+    transitions = Transition(np.repeat(states, len(drops), axis=0), np.tile(drops, len(states)))
+    steps = Rows({k: np.full(n, float(x)) for k, x in params.items()}, transitions)
+    v_next, status = run_chunks(_step_program(model, solver), steps, CALL_ROWS, None)
     q, escaped = _transitions(mesh, np.asarray(v_next), np.asarray(status) == Status.OK, weights)
     n = q.shape[0]
     t = scipy.sparse.linalg.spsolve((scipy.sparse.identity(n, format="csc") - q).tocsc(), q @ np.ones(n))

@@ -25,6 +25,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxwalk import program_cache
+from jaxwalk.batching import Rows, over_rows, run_chunks, sub_batch_size
 from jaxwalk.status import Status
 from jaxwalk.step import SolverOptions, step_map
 from jaxwalk.walker import Walker
@@ -67,6 +69,7 @@ def walk_terrain(model: Walker, params, v0: Array, drops: Array, solver: SolverO
     return WalkRecord(jnp.concatenate([v0[None], vs]), time, length, status)
 
 
+@program_cache.serializable
 class FallResult(NamedTuple):
     """One random walk of :func:`steps_to_fall`.
 
@@ -95,7 +98,7 @@ class WalkEnd(NamedTuple):
     stopped: Array
 
 
-def walk_until(model: Walker, params, v0: Array, max_steps: int, drop=None, stop=None,
+def walk_until(model: Walker, params, v0: Array, max_steps, drop=None, stop=None,
                solver: SolverOptions = SolverOptions()) -> WalkEnd:
     """Walk from ``v0`` until a step fails, ``stop(v)`` holds after a completed step,
     or ``max_steps`` steps are done (one walk; vmap it).
@@ -103,6 +106,8 @@ def walk_until(model: Walker, params, v0: Array, max_steps: int, drop=None, stop
     The one walker loop of this package: every walk here is it.
 
     Args:
+        max_steps: the step limit, a Python int or an int32 scalar (a traced one
+            lets one compiled program serve every limit).
         drop: ``drop(k) -> e_k``, step ``k``'s ground drop (model length units); default flat.
         stop: ``stop(v) -> bool`` of the state after a completed step; default never.
     """
@@ -123,7 +128,7 @@ def walk_until(model: Walker, params, v0: Array, max_steps: int, drop=None, stop
 
 
 def steps_to_fall(
-    model: Walker, params, v0: Array, key: Array, sigma, max_steps: int, solver: SolverOptions = SolverOptions()
+    model: Walker, params, v0: Array, key: Array, sigma, max_steps, solver: SolverOptions = SolverOptions()
 ) -> FallResult:
     """Walk from ``v0`` on i.i.d. ``N(0, sigma^2)`` drops until a failure (one walk; vmap it).
 
@@ -154,14 +159,30 @@ class MonteCarlo(NamedTuple):
     censored: int
 
 
-@functools.lru_cache(maxsize=None)
-def _fall_program(model: Walker, max_steps: int, solver: SolverOptions):
-    # Sub-batches of the model's lockstep batch: each runs as long as its own longest walk.
-    def program(p, v0, keys, sigma):
-        one = lambda key: steps_to_fall(model, p, v0, key, sigma, max_steps, solver)
-        return jax.lax.map(one, keys, batch_size=model.lockstep_batch)
+class FallStart(NamedTuple):
+    """The input of the Monte Carlo program beside the parameters, one walk per row."""
 
-    return jax.jit(program)
+    v0: np.ndarray  # (n, n_v) the start (the gait's fixed point)
+    key: np.ndarray  # (n, 2) uint32, the walk's random key
+    sigma: np.ndarray  # (n,) standard deviation of the drops (model length units)
+    max_steps: np.ndarray  # (n,) int32, the walk's step limit
+
+
+#: Walks per call of the Monte Carlo program: any number of walks, any step
+#: limit, runs in calls of this one shape (one compile;
+#: :func:`jaxwalk.batching.run_chunks`).
+CALL_WALKS = 1024
+
+
+@functools.lru_cache(maxsize=None)
+def _fall_program(model: Walker, solver: SolverOptions):
+    # Sub-batches of the engine's sub-batch size: each runs as long as its own longest walk.
+    def one(p, start: FallStart):
+        return steps_to_fall(model, p, start.v0, start.key, start.sigma, start.max_steps, solver)
+
+    program = jax.jit(over_rows(one, sub_batch_size(model, solver)))
+    program_cache.register(program, "monte_carlo_walks", model, solver)
+    return program
 
 
 def monte_carlo(
@@ -176,12 +197,15 @@ def monte_carlo(
 ) -> MonteCarlo:
     """``n_walks`` random walks from ``v0`` (the gait's fixed point), all at once.
 
-    Walk ``i`` uses the key ``fold_in(PRNGKey(seed), i)``. One program (one
-    core), walks in lockstep in sub-batches of ``model.lockstep_batch``.
+    Walk ``i`` uses the key ``fold_in(PRNGKey(seed), i)``. Walks run in lockstep
+    in sub-batches of the engine's sub-batch size, split over the worker threads
+    (:func:`jaxwalk.batching.run_chunks`).
     """
-    keys = jax.vmap(lambda i: jax.random.fold_in(jax.random.PRNGKey(seed), i))(jnp.arange(n_walks))
-    p = {k: jnp.asarray(v, jnp.float64) for k, v in params.items()}
-    out = _fall_program(model, int(max_steps), solver)(p, jnp.asarray(v0, jnp.float64), keys, jnp.asarray(sigma, jnp.float64))
+    keys = np.asarray(jax.vmap(lambda i: jax.random.fold_in(jax.random.PRNGKey(seed), i))(jnp.arange(n_walks)))
+    start = FallStart(np.repeat(np.asarray(v0, np.float64)[None], n_walks, 0), keys,
+                      np.full(n_walks, float(sigma)), np.full(n_walks, int(max_steps), np.int32))
+    rows = Rows({k: np.full(n_walks, float(x)) for k, x in params.items()}, start)
+    out = run_chunks(_fall_program(model, solver), rows, CALL_WALKS, None)
     steps, status = np.asarray(out.steps), np.asarray(out.status)
     return MonteCarlo(
         steps=steps,
