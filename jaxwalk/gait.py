@@ -15,6 +15,7 @@ numbers, never a number with status 0 that is wrong.
 from __future__ import annotations
 
 import dataclasses
+import functools
 from typing import NamedTuple
 
 import jax
@@ -127,6 +128,11 @@ def _stability(jacobian: Array) -> tuple[Array, Array]:
     return eig, jnp.abs(eig[0])
 
 
+# Jitted: a direct call compiles once per model, settings and shape (an
+# unjitted call compiled its while loop anew each time, 12 s for the simplest
+# walker), and inside other programs its transformed jaxprs are cached
+# (jaxwalk.step._solve_phase).
+@functools.partial(jax.jit, static_argnames=("model", "solver", "newton"))
 def find_gait(
     model: Walker,
     params: Params,
