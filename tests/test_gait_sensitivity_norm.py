@@ -23,6 +23,12 @@ from jaxwalk.step import SolverOptions
 N_STEPS = 60
 
 
+@functools.partial(jax.jit, static_argnames=("model", "solver"))
+def _norm(model, params, v, solver=SolverOptions()):
+    """The norm at ``v``, one compiled program per model and solver for every test here."""
+    return gait_sensitivity_norm(model, params, v, solver=solver)
+
+
 def _defaults(model):
     return {s.name: jnp.asarray(s.default, jnp.float64) for s in model.parameters}
 
@@ -50,7 +56,7 @@ def _finite_difference_norm(model, params, v_star, eps):
 
 def test_norm_equals_finite_differences_of_perturbed_walks(gait):
     model, params, g = gait
-    norm = float(jax.jit(lambda v: gait_sensitivity_norm(model, params, v))(g.v))
+    norm = float(_norm(model, params, g.v))
     fd = _finite_difference_norm(model, params, g.v, 3e-5)
     # FD error: integration noise ~1e-10 over eps 3e-5 and the O(eps^4) remainder.
     assert norm == pytest.approx(fd, rel=2e-5)
@@ -80,11 +86,10 @@ def test_gradient_equals_finite_differences_of_the_norm():
     gamma, h = 0.009, 1e-4
     tight = SolverOptions(rtol=1e-12, atol=1e-12)
 
-    @functools.partial(jax.jit, static_argnums=1)
     def norm_at(g_, solver):
-        p = {"gamma": g_}
-        gt = find_gait(model, p, model.initial_guess(p), solver)
-        return gait_sensitivity_norm(model, p, gt.v, solver=solver)
+        # The gait fixture's and test_norm_equals_...'s programs at the default solver.
+        p = {"gamma": jnp.asarray(g_, jnp.float64)}
+        return _norm(model, p, find_gait(model, p, model.initial_guess(p), solver).v, solver)
 
     def central(step):
         return (float(norm_at(gamma + step, tight)) - float(norm_at(gamma - step, tight))) / (2 * step)
@@ -139,5 +144,5 @@ def test_sweep_output_equals_the_function(gait):
     options = dataclasses.replace(AnalysisOptions(), global_stability=GlobalOptions(gait_sensitivity=("step_time", "step_length")))
     out = analyse_grid(model, {}, {"gamma": np.array([0.009, 0.0095])}, "gamma", options)
     assert out["status"].tolist() == [0, 0]
-    expected = float(jax.jit(lambda v: gait_sensitivity_norm(model, params, v))(g.v))
+    expected = float(_norm(model, params, g.v))
     assert out["gait_sensitivity_norm"][0] == pytest.approx(expected, rel=1e-7)
