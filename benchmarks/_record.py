@@ -25,6 +25,20 @@ def write_result(name: str, result: dict) -> str:
     return path
 
 
+def write_stamped(name: str, result: dict) -> str:
+    """:func:`write_result` with the machine, its load, the versions and the date added; prints the path."""
+    import jax
+
+    import jaxwalk
+
+    result.update(machine=machine(), load_average=os.getloadavg(),
+                  versions={"jaxwalk": jaxwalk.__version__, "jax": jax.__version__},
+                  date=time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()))
+    path = write_result(name, result)
+    print("wrote", path)
+    return path
+
+
 def time_compiled(program, args, repeat: int):
     """``(compile_s, best_run_s, out)``: ``program`` (jitted) compiled for ``args``
     by ``lower().compile()``, then run ``repeat`` times (best time kept; compile apart)."""

@@ -29,11 +29,11 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 
-import jaxwalk  # noqa: E402
+import jaxwalk  # noqa: E402,F401 (its import sets the cache and EQX_ON_ERROR)
 from jaxwalk import mechanics  # noqa: E402
 from jaxwalk.gait import find_gait  # noqa: E402
 from jaxwalk.models import get_model  # noqa: E402
-from _record import machine, write_result  # noqa: E402
+from _record import write_stamped  # noqa: E402
 
 SPREAD = {"flatfoot": ("r", 0.39, 0.43), "simplest": ("gamma", 0.004, 0.014), "compass": ("gamma", 0.02, 0.06),
           "kneed": ("gamma", 0.006, 0.010)}
@@ -92,10 +92,7 @@ def main() -> None:
     e, s = result["forms"]["entrywise"], result["forms"]["stacked"]
     result["stacked_over_entrywise"] = {k: s[k] / e[k] for k in ("trace_lower_s", "compile_s", "stablehlo_lines", "run_ms_per_config")}
     print(f"stacked / entrywise: {result['stacked_over_entrywise']}; max |d lambda_max| {result['max_abs_d_lambda_max']}")
-    result.update(machine=machine(), load_average=os.getloadavg(),
-                  versions={"jaxwalk": jaxwalk.__version__, "jax": jax.__version__},
-                  date=time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()))
-    print("wrote", write_result(f"dynamics_form_{args.model}", result))
+    write_stamped(f"dynamics_form_{args.model}", result)
 
 
 if __name__ == "__main__":

@@ -42,12 +42,12 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 
-import jaxwalk  # noqa: E402
+import jaxwalk  # noqa: E402,F401 (its import sets the cache and EQX_ON_ERROR)
 from jaxwalk import gait, sensitivity, step  # noqa: E402
 from jaxwalk.gait import NewtonOptions  # noqa: E402
 from jaxwalk.models import get_model  # noqa: E402
 from jaxwalk.step import SolverOptions  # noqa: E402
-from _record import machine, write_result  # noqa: E402
+from _record import write_stamped  # noqa: E402
 
 SPREAD = {"simplest": ("gamma", 0.006, 0.012), "compass": ("gamma", 0.02, 0.06), "kneed": ("gamma", 0.006, 0.010),
           "flatfoot": ("r", 0.39, 0.43)}
@@ -141,10 +141,7 @@ def main() -> None:
         entry["unjitted_over_boundaries"] = entry["unjitted"][key] / entry["boundaries"][key]
         print(f"{k}: unjitted / boundaries {key} {entry['unjitted_over_boundaries']:.2f}x, "
               f"bit-identical {entry['bit_identical']}", flush=True)
-    result.update(machine=machine(), load_average=os.getloadavg(),
-                  versions={"jaxwalk": jaxwalk.__version__, "jax": jax.__version__},
-                  date=time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()))
-    print("wrote", write_result(f"jit_boundaries_{args.model}", result))
+    write_stamped(f"jit_boundaries_{args.model}", result)
 
 
 if __name__ == "__main__":
