@@ -1,5 +1,7 @@
-"""``jaxwalk optimize``: config checks, bad input at the command line, and an
-optimum on the simplest walker that a fine grid confirms."""
+"""``jaxwalk optimize``: config checks, bad input at the command line, the
+optimiser's loop on a stand-in program. The optimum on the simplest walker that
+a fine grid confirms is in tests/test_sensitivity.py, beside the compiled
+programs it shares."""
 
 from __future__ import annotations
 
@@ -97,33 +99,6 @@ def test_cli_bad_input_exits_2_and_writes_nothing(write_toml, run_cli, tmp_path,
         lines = capsys.readouterr().err.strip().splitlines()
         assert len(lines) == 1 and lines[0].startswith("jaxwalk: error: "), lines
     assert not out.exists()
-
-
-@pytest.mark.slow
-def test_simplest_optimum_confirmed_by_a_fine_grid():
-    """Minimising lambda_max over the slope from four starts ends where a fine grid
-    puts the minimum: at the kink where the complex pair of multipliers turns
-    real (gamma ~ 0.0137). The kink is not differentiable, so the iterates
-    straddle it; the test asks for the grid's spacing, not more."""
-    from tests.test_sensitivity import GAMMAS, SIMPLEST, grid_at
-
-    from jaxwalk.optimize.engine import Problem, optimise
-
-    problem = Problem(names=("gamma",), lower=(0.004,), upper=(0.0145,), iterations=40, learning_rate=0.05)
-    starts = GAMMAS[:, None].copy()  # the sensitivity tests' batch: the same compiled program
-    starts[-1] = 0.0144
-    path = optimise(SIMPLEST, problem, {}, starts)
-    assert (path.final_status == 0).all()
-    fine = np.linspace(0.0125, 0.0145, 64)
-    grid = grid_at(fine)
-    assert (grid["status"] == 0).all()
-    best = fine[np.argmin(grid["lambda_max"])]
-    spacing = fine[1] - fine[0]
-    lam_best = path.metrics["lambda_max"][path.best_row, np.arange(4)]
-    for s in range(4):
-        assert abs(path.best_params[s, 0] - best) <= spacing
-        assert abs(path.final_params[s, 0] - best) <= 2 * spacing
-        assert lam_best[s] <= grid["lambda_max"].min() + 1e-3
 
 
 class _FakeSensitivity:

@@ -127,6 +127,36 @@ def test_failed_gait_gives_status_and_nan_derivatives(sens):
 
 
 @pytest.mark.slow
+def test_simplest_optimum_confirmed_by_a_fine_grid():
+    """Minimising lambda_max over the slope from four starts ends where a fine grid
+    puts the minimum: at the kink where the complex pair of multipliers turns
+    real (gamma ~ 0.0137). The kink is not differentiable, so the iterates
+    straddle it; the test asks for the grid's spacing, not more.
+
+    An optimiser test, kept in this module because it runs this module's two
+    compiled programs (the sensitivity program at the batch of GAMMAS, and
+    grid_at's): CI deals whole modules to its two workers (``--dist loadfile``),
+    and from another module it compiled both again on the other worker."""
+    from jaxwalk.optimize.engine import Problem, optimise
+
+    problem = Problem(names=("gamma",), lower=(0.004,), upper=(0.0145,), iterations=40, learning_rate=0.05)
+    starts = GAMMAS[:, None].copy()  # the sensitivity tests' batch: the same compiled program
+    starts[-1] = 0.0144
+    path = optimise(SIMPLEST, problem, {}, starts)
+    assert (path.final_status == 0).all()
+    fine = np.linspace(0.0125, 0.0145, 64)
+    grid = grid_at(fine)
+    assert (grid["status"] == 0).all()
+    best = fine[np.argmin(grid["lambda_max"])]
+    spacing = fine[1] - fine[0]
+    lam_best = path.metrics["lambda_max"][path.best_row, np.arange(4)]
+    for s in range(4):
+        assert abs(path.best_params[s, 0] - best) <= spacing
+        assert abs(path.final_params[s, 0] - best) <= 2 * spacing
+        assert lam_best[s] <= grid["lambda_max"].min() + 1e-3
+
+
+@pytest.mark.slow
 @pytest.mark.skipif(
     not os.environ.get("JAXWALK_FLATFOOT_GRADIENT"),
     reason="tracing and compiling the flat-foot walker's second-order program takes about 5 min on two cores "
