@@ -7,7 +7,8 @@ follows a Markov chain, ``v_{k+1} = f(v_k, e_k)``, with one absorbing state,
 failure (any failed step). The MFPT is the expected number of completed steps
 before the first failure.
 
-Discretisation (all of it batched: one ``vmap`` over mesh points x terrain samples):
+Discretisation (all of it batched: the mesh points x terrain samples are the rows of
+:data:`CALL_ROWS`-row calls of one compiled step program, split over the worker threads):
 
 * **Mesh.** A regular grid around the gait ``v*`` along the principal axes of
   the linearised chain's stationary covariance ``P = sigma^2 sum_k J^k B B^T
