@@ -87,8 +87,8 @@ def solve_phase(model: Walker, params, y, phase, ctx, t0, g0: Float[Array, "n_gu
 # the enclosing while loops' batching and jvp rules (Newton's, the phase
 # loop's), which transform their bodies again and again, transform these only
 # once per distinct input batching. Tracing the simplest walker's
-# second-order sensitivity program fell from 72 to 44 s; the compiled program
-# and every number are unchanged (benchmarks/README.md, "Tracing").
+# second-order sensitivity program fell from 66 to 40 s; the compiled program
+# and every number are unchanged (benchmarks/bench_jit_boundaries.py).
 @functools.partial(jax.jit, static_argnums=(0, 7))
 def _solve_phase(model: Walker, params, y, phase, ctx, t0, g0, opts: SolverOptions):
     """End time, end state and diffrax result of :func:`solve_phase`, and its
