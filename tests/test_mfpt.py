@@ -71,3 +71,14 @@ def test_mfpt_is_reproducible():
     options = MFPTOptions(sigma=1.5e-4, mesh=9, samples=16, span=5.0)
     first, second = mfpt(model, params, v, options), mfpt(model, params, v, options)
     assert tuple(first) == tuple(second)
+
+
+@pytest.mark.parametrize("kwargs, words", [({"n_walks": 1}, "n_walks must be an integer >= 2"),
+                                           ({"max_steps": 0}, "max_steps must be an integer"),
+                                           ({"max_steps": 2**31}, "max_steps must be an integer")])
+def test_monte_carlo_refuses_bad_counts_with_one_line(kwargs, words):
+    from jaxwalk.errors import ConfigError
+
+    model = get_model("simplest")
+    with pytest.raises(ConfigError, match=words):
+        monte_carlo(model, {"gamma": 0.009}, np.zeros(len(model.section_names)), 1e-4, **kwargs)

@@ -27,6 +27,7 @@ import numpy as np
 
 from jaxwalk import program_cache
 from jaxwalk.batching import Rows, over_rows, run_chunks, sub_batch_size
+from jaxwalk.errors import ConfigError
 from jaxwalk.status import Status
 from jaxwalk.step import SolverOptions, step_map
 from jaxwalk.walker import Walker
@@ -199,8 +200,13 @@ def monte_carlo(
 
     Walk ``i`` uses the key ``fold_in(PRNGKey(seed), i)``. Walks run in lockstep
     in sub-batches of the engine's sub-batch size, split over the worker threads
-    (:func:`jaxwalk.batching.run_chunks`).
+    (:func:`jaxwalk.batching.run_chunks`). Raises :class:`~jaxwalk.errors.ConfigError`
+    for ``n_walks < 2`` or a ``max_steps`` outside ``[1, 2**31)``.
     """
+    if not (isinstance(n_walks, (int, np.integer)) and n_walks >= 2):
+        raise ConfigError(f"monte_carlo: n_walks must be an integer >= 2 (a standard error needs two walks), got {n_walks!r}")
+    if not (isinstance(max_steps, (int, np.integer)) and 1 <= max_steps < 2**31):
+        raise ConfigError(f"monte_carlo: max_steps must be an integer in [1, 2**31), got {max_steps!r}")
     keys = np.asarray(jax.vmap(lambda i: jax.random.fold_in(jax.random.PRNGKey(seed), i))(jnp.arange(n_walks)))
     start = FallStart(np.repeat(np.asarray(v0, np.float64)[None], n_walks, 0), keys,
                       np.full(n_walks, float(sigma)), np.full(n_walks, int(max_steps), np.int32))
