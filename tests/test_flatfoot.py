@@ -22,6 +22,7 @@ from jaxwalk.models.flatfoot import events as ev
 from jaxwalk.models.flatfoot import forces as fo
 from jaxwalk.models.flatfoot import geometry as geo
 from jaxwalk.models.flatfoot import phases as ph
+from jaxwalk.models.flatfoot.model import HIP_SPRING_PARAMS
 from jaxwalk.simulate import AFTER_EVENT, BEFORE_EVENT, record_walk
 from jaxwalk.status import Status
 from jaxwalk.step import step_map
@@ -103,19 +104,24 @@ def tangent_fn(step_program):
     return tangent
 
 
-@pytest.fixture(scope="module")
-def fixed_point(params, step_fn, tangent_fn):
-    """Newton from the stored nominal gait; returns ``(v, J)``."""
+def _newton(params, step_fn, tangent_fn, iterations=4):
+    """Newton from the model's stored guess for ``params``; returns ``(v, J, residual)``."""
     v = MODEL.initial_guess(params)
     eye = jnp.eye(2)
-    for _ in range(4):
+    for _ in range(iterations):
         v1, _ = step_fn(v, params)
         jac = jnp.stack([tangent_fn(v, eye[i], params)[1] for i in range(2)], axis=1)
         res = v1 - v
         if float(jnp.linalg.norm(res)) < 1e-10:
             break
         v = v - jnp.linalg.solve(jac - eye, res)
-    return v, jac
+    return v, jac, float(jnp.linalg.norm(res))
+
+
+@pytest.fixture(scope="module")
+def fixed_point(params, step_fn, tangent_fn):
+    """Newton from the stored nominal gait; returns ``(v, J)``."""
+    return _newton(params, step_fn, tangent_fn)[:2]
 
 
 @pytest.fixture(scope="module")
@@ -465,6 +471,7 @@ OPTION_CASES = {
     "knee_gate": {"knee_gate": 1.0},
     "inertia": {"rho_t": 0.1, "rho_s": 0.1},
     "swing_dorsi": {"swing_dorsi": 0.03},
+    "hip_spring": {"k_hip": 0.002},
 }
 
 
@@ -530,3 +537,50 @@ def test_each_option_jacobian_matches_central_differences(params, step_fn, tange
         _, column = tangent_fn(v, e, p)
         plus, minus = step_fn(v + h * e, p)[0], step_fn(v - h * e, p)[0]
         np.testing.assert_allclose(np.asarray(column), np.asarray((plus - minus) / (2 * h)), rtol=1e-4, atol=1e-5)
+
+
+# ----------------------------------------------------------------- the hip-spring gait (issue 14)
+@pytest.fixture(scope="module")
+def hip_spring(params, step_fn, tangent_fn):
+    """``(params, v, J, residual)`` of the documented hip-spring gait, Newton from its stored guess."""
+    p = _with(params, **HIP_SPRING_PARAMS)
+    return (p, *_newton(p, step_fn, tangent_fn))
+
+
+def test_hip_spring_gait_is_stable_with_no_floor_penetration_tolerated(hip_spring, step_fn):
+    """Issue 14: a stable period-1 gait with ``scuff_tol = 0``, its swing foot never
+    below the ground: the tracked minimum and every recorded in-air sample >= 0,
+    the knee still flexed (its latch open) when the swing ankle passes the stance
+    ankle, and the seven phases in the paper's order."""
+    p, v, jac, residual = hip_spring
+    assert float(p["scuff_tol"]) == 0.0 and residual < 1e-10
+    assert float(np.max(np.abs(np.linalg.eigvals(np.asarray(jac))))) < 0.8
+    _, res = step_fn(v, p)
+    assert int(res.status) == Status.OK and float(cl.min_clearance(res.ctx)) > 0.0
+    names = [ev.GUARD_NAMES[c] for c in ph.decode_history(np.asarray(res.ctx))]
+    assert names == ["unlock", "knee_flex", "toe_off", "knee_strike", "heel_strike", "toe_strike"]
+    y0, phase0, ctx0 = MODEL.section_to_state(v, p)
+    walk = record_walk(MODEL, p, y0, phase0, ctx0, n_steps=1, dt=0.02)
+    passed = False
+    for y, phase, ctx in (s for states in _phases(walk) for s in states):
+        if phase in (ph.SWING, ph.LOCKED_SWING):
+            assert float(_lowest_point(y, p, ctx)) >= -1e-12
+            q = np.asarray(y[:6])
+            if not passed and geo.ankle(q, p, 2)[0] >= geo.ankle(q, p, 1)[0]:
+                passed = True
+                assert phase == ph.SWING and geo.flexion(q, 2) > 1.0  # rad; knee_lock is 0.2
+    assert passed
+
+
+def test_hip_spring_step_matches_the_independent_scipy_walker(hip_spring, step_fn):
+    """The hip spring written again in the SciPy reference: the same step from the
+    hip-spring gait (measured 1e-9 apart in ``v_next``; events to 1e-9)."""
+    from tests.reference import flatfoot as ref
+
+    p, v, _, _ = hip_spring
+    v1, res = step_fn(v, p)
+    v1_ref, info = ref.step_map(np.asarray(v), {k: float(x) for k, x in p.items()})
+    assert info["status"] == "ok"
+    np.testing.assert_allclose(v1_ref, np.asarray(v1), rtol=0.0, atol=1e-8)
+    assert abs(info["time"] - float(res.time)) < 1e-7
+    assert abs(info["min_clearance"] - float(cl.min_clearance(res.ctx))) < 1e-8

@@ -49,7 +49,16 @@ def spring_energy(q, params, phase, ctx):
         _toe_spring(ankle_2, shank_2, params, ctx),
         jnp.where(ph.ON_HEEL[phase], _heel_spring(ankle_2, shank_2, params, ctx), 0.0),
     )
-    return stance + trailing
+    return stance + trailing + hip_spring_energy(q, params)
+
+
+def hip_spring_energy(q, params):
+    """Elastic energy of the hip spring, ``k_hip/2 (thigh_2 - thigh_1)^2``.
+
+    Relaxed with the thighs together, so it is the same before and after the
+    legs swap: it stores and returns energy within a step and does no net work.
+    """
+    return 0.5 * params["k_hip"] * (q[geo.THIGH_2] - q[geo.THIGH_1]) ** 2
 
 
 def hip_torque(q, params):

@@ -25,6 +25,17 @@ from jaxwalk.models.flatfoot import phases as ph
 from jaxwalk.parameters import ParamSpec, nonnegative, positive
 from jaxwalk.walker import Walker
 
+#: The nominal gait of the defaults, ``(psi, psi_dot)`` (docs/model.md, "Defaults and the nominal gait").
+NOMINAL_GAIT = (0.16327572732, -0.186444529299)
+#: Parameters (changes from the defaults) of the admissible hip-spring gait: a hip
+#: spring and more hip torque swing the leg faster, so the knee is still flexed as
+#: the swing foot passes the stance foot; the swing foot is turned toe-up so it
+#: clears the ground at toe-off; no floor penetration is tolerated (docs/model.md,
+#: "The hip-spring gait").
+HIP_SPRING_PARAMS = {"k_hip": 0.125, "P": 0.0566, "swing_dorsi": 0.1, "knee_gate": 1.0, "scuff_tol": 0.0}
+#: Its fixed point ``(psi, psi_dot)``.
+HIP_SPRING_GAIT = (0.16811061518, -0.24466430626)
+
 #: Rows that hold at the start of a step (push-off), used to build the section's velocity.
 _SECTION_ROWS = (ph.ANKLE_1_X, ph.ANKLE_1_Y, ph.KNEE_1, ph.KNEE_2, ph.TOE_2)
 
@@ -46,6 +57,7 @@ class FlatFootWalker(Walker):
         positive("r", 0.4, "1", "foot ratio, (heel to ankle) / (ankle to toe)"),
         nonnegative("k", 0.03, "1", "ankle spring stiffness"),
         ParamSpec("P", 0.0076, "1", "hip torque, + on the swing thigh, - on the stance thigh"),
+        nonnegative("k_hip", 0.0, "1", "hip spring stiffness between the thighs (M g L per rad), relaxed with the thighs together"),
         nonnegative("delay", 0.066, "1", "knee-unlock delay after toe-strike"),
         ParamSpec("knee_lock", 0.2, "rad", "knee flexion at the extension stop, where a knee locks", lower=0.0, upper=0.5),
         nonnegative("scuff_tol", 0.03, "1", "allowed depth of the swing foot below ground"),
@@ -131,10 +143,16 @@ class FlatFootWalker(Walker):
         return jnp.stack([y[geo.THIGH_1] - delta, y[6 + geo.THIGH_1]])
 
     def initial_guess(self, params):
-        # The nominal gait of the default parameters (docs/model.md), to 3e-8: its step-map
-        # residual is 1.3e-8 at the default tolerances (Newton polishes it; the SciPy walker
-        # in tests/reference/flatfoot agrees with the polished point to 1.6e-8).
-        return jnp.array([0.16327572732, -0.186444529299])
+        """The documented gait nearest ``params`` in hip-spring stiffness (docs/model.md).
+
+        Two gaits are documented: the nominal one of the defaults (no hip spring;
+        to 3e-8, its step-map residual 1.3e-8 at the default tolerances, and the
+        SciPy walker in tests/reference/flatfoot agrees with the polished point to
+        1.6e-8) and the hip-spring gait of :data:`HIP_SPRING_PARAMS`, which walks
+        with the swing foot above the ground all swing.
+        """
+        hip_spring = params["k_hip"] >= 0.5 * HIP_SPRING_PARAMS["k_hip"]
+        return jnp.where(hip_spring, jnp.array(HIP_SPRING_GAIT), jnp.array(NOMINAL_GAIT))
 
     # ------------------------------------------------------------ extras
     def reactions(self, y, params, phase, ctx):

@@ -6,7 +6,8 @@ contact: 0 flat, ``atan2`` of the toe-to-ankle or heel-to-ankle vector when
 pivoting. Its spring stores ``V = k/2 (shank - phi)^2`` (in heel pivot relaxed at
 the landing angle ``shank + swing_dorsi``), and the generalized force is
 ``-dV/dq`` with ``d phi/dq`` written out from ``d atan2(w)/dw = (-w_y, w_x)/|w|^2``.
-The hip torque ``P`` acts ``+P`` on the swing thigh, ``-P`` on the stance thigh.
+The hip torque ``P`` acts ``+P`` on the swing thigh, ``-P`` on the stance thigh;
+the hip spring ``k_hip`` stores ``k_hip/2 (thigh_2 - thigh_1)^2``.
 """
 
 from __future__ import annotations
@@ -41,7 +42,7 @@ def _pivot(q, p, ctx, phase):
 
 
 def spring_energy(q: np.ndarray, p: Mapping[str, float], phase: int, ctx: dict) -> float:
-    energy = 0.5 * p["k"] * q[SHANK_1] ** 2
+    energy = 0.5 * p["k"] * q[SHANK_1] ** 2 + 0.5 * p["k_hip"] * (q[THIGH_2] - q[THIGH_1]) ** 2
     pivot = _pivot(q, p, ctx, phase)
     if pivot is not None:
         w, _, rest = pivot
@@ -62,8 +63,9 @@ def joint_forces(q: np.ndarray, p: Mapping[str, float], phase: int, ctx: dict) -
         drest = np.zeros(N_Q)
         drest[SHANK_2] = 1.0  # the rest angle turns with the shank (swing_dorsi is constant)
         force -= p["k"] * stretch * (drest - dphi)
-    force[THIGH_2] += p["P"]
-    force[THIGH_1] -= p["P"]
+    spread = q[THIGH_2] - q[THIGH_1]
+    force[THIGH_2] += p["P"] - p["k_hip"] * spread
+    force[THIGH_1] -= p["P"] - p["k_hip"] * spread
     return force
 
 
