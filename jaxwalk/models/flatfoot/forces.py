@@ -11,6 +11,7 @@ pivot the spring is relaxed at that landing angle.
 The hip torque is a constant ``P`` between the thighs, ``+P`` on the swing thigh and
 ``-P`` on the stance thigh: the generalized force of the potential
 ``-P (thigh_2 - thigh_1)``, so within a step energy minus actuator work is conserved.
+The hip spring (``k_hip``) is a potential like the ankle springs, in every phase.
 """
 
 from __future__ import annotations

@@ -2,7 +2,8 @@
 
 A point mass at the hip (upper body), a point mass on each thigh and shank,
 the foot's mass at the ankle, rigid massless flat feet on linear torsional ankle
-springs, knees that lock and unlock, and a constant hip torque ``P``. Units:
+springs, knees that lock and unlock, a constant hip torque ``P`` and an optional
+hip spring ``k_hip``. Units:
 total mass M = leg length L = g = 1 (time in ``sqrt(L/g)``). See
 ``docs/model.md`` for every modelling decision and its source.
 
