@@ -574,7 +574,8 @@ def test_hip_spring_gait_is_stable_with_no_floor_penetration_tolerated(hip_sprin
 
 def test_hip_spring_step_matches_the_independent_scipy_walker(hip_spring, step_fn):
     """The hip spring written again in the SciPy reference: the same step from the
-    hip-spring gait (measured 1e-9 apart in ``v_next``; events to 1e-9)."""
+    hip-spring gait (measured 1e-9 apart in ``v_next``, 1.1e-9 in the heel-strike
+    time) and the same events in the same order."""
     from tests.reference import flatfoot as ref
 
     p, v, _, _ = hip_spring
@@ -584,3 +585,8 @@ def test_hip_spring_step_matches_the_independent_scipy_walker(hip_spring, step_f
     np.testing.assert_allclose(v1_ref, np.asarray(v1), rtol=0.0, atol=1e-8)
     assert abs(info["time"] - float(res.time)) < 1e-7
     assert abs(info["min_clearance"] - float(cl.min_clearance(res.ctx))) < 1e-8
+    names = [ev.GUARD_NAMES[c] for c in ph.decode_history(np.asarray(res.ctx))]
+    assert [name for name, _ in info["events"]] == names
+    times = dict(info["events"])
+    for name in ("toe_off", "knee_strike", "heel_strike"):
+        assert abs(times[name] - float(res.ctx[ph.C["t_" + name]])) < 1e-7, name
