@@ -204,7 +204,7 @@ def _close_phase(model: Walker, params, opts: SolverOptions, c: _Carry, go_on: _
         n_events=end.n_events,
         # Work over the phase, from its start to the event (before the reset,
         # which may relabel the legs); impacts do not move the joints.
-        work=c.work + model.actuator_work(c.y_start, end.y_event, params),
+        work=c.work + model.actuator_work(c.y_start, end.y_event, params, c.phase, c.ctx),
     )
 
 

@@ -209,9 +209,11 @@ class Walker:
         Default none: a passive walker (see :attr:`actuated`)."""
         return jnp.zeros((), qd.dtype)
 
-    def actuator_work(self, y_start: Float[Array, "2*n_q"], y_end: Float[Array, "2*n_q"], params: Params) -> Float[Array, ""]:
-        """*actuators* work done by the actuators from ``y_start`` to ``y_end`` within one
-        phase (scalar, model energy units). Default none: a passive walker."""
+    def actuator_work(self, y_start: Float[Array, "2*n_q"], y_end: Float[Array, "2*n_q"], params: Params, phase: Int32[ArrayLike, ""],
+                      ctx: Float[Array, "n_ctx"]) -> Float[Array, ""]:
+        """*actuators* work done by the actuators from ``y_start`` to ``y_end`` within
+        ``phase`` (its discrete state ``ctx``, which a phase does not change; scalar,
+        model energy units). Default none: a passive walker."""
         return jnp.zeros((), y_start.dtype)
 
     @property

@@ -118,7 +118,7 @@ def test_shapes_against_declared_names(model, start):
     for scalar in (
         model.energy(y, params, phase, ctx),
         model.actuator_power(q, qd, params, phase, ctx),
-        model.actuator_work(y, y, params),
+        model.actuator_work(y, y, params, phase, ctx),
         model.weight(params),
         model.time_scale(params),
     ):
@@ -159,7 +159,7 @@ def test_energy_minus_work_is_conserved_over_a_continuous_phase(model, start):
         args=(params, phase, ctx), stepsize_controller=diffrax.PIDController(rtol=1e-11, atol=1e-11),
         saveat=diffrax.SaveAt(ts=jnp.linspace(0.0, t1, 5)),
     )
-    balance = [model.energy(y_t, params, phase, ctx) - model.actuator_work(y, y_t, params) for y_t in sol.ys]
+    balance = [model.energy(y_t, params, phase, ctx) - model.actuator_work(y, y_t, params, phase, ctx) for y_t in sol.ys]
     # Energy scale: weight x leg length, the leg length being g T^2 (T = sqrt(L/g)).
     scale = float(model.weight(params) * jnp.linalg.norm(model.gravity(params)) * model.time_scale(params) ** 2)
     np.testing.assert_allclose(np.asarray(balance) - float(balance[0]), 0.0, atol=1e-9 * scale)
