@@ -25,8 +25,8 @@ from jaxwalk.models.flatfoot import phases as ph
 from jaxwalk.models.flatfoot.model import HIP_SPRING_PARAMS
 from jaxwalk.simulate import AFTER_EVENT, BEFORE_EVENT, record_walk
 from jaxwalk.status import Status
-from jaxwalk.step import step_map
 from jaxwalk.stepdown import StepDownOptions, h_max
+from tests.flatfoot_program import LEVEL as _LEVEL, NO_TANGENT as _NO_TANGENT, STEP_PROGRAM, newton as _newton, with_params as _with
 
 MODEL = get_model("flatfoot")
 
@@ -65,20 +65,8 @@ def params():
 
 @pytest.fixture(scope="module")
 def step_program():
-    """``(v, dv, params, drop) -> (v_next, StepResult, dv_next)``: one step onto
-    ground ``drop`` lower and its forward derivative along ``dv``. Every test
-    here steps through this one program (a step map and a separate jvp would
-    compile twice; the jvp's primal is the step map)."""
-
-    def step(v, dv, p, drop):
-        (v1, res), (dv1, _) = jax.jvp(lambda v_: step_map(MODEL, v_, p, ground_drop=drop), (v,), (dv,))
-        return v1, res, dv1
-
-    return jax.jit(step)
-
-
-_LEVEL = jnp.zeros((), jnp.float64)
-_NO_TANGENT = jnp.zeros(2, jnp.float64)
+    """``(v, dv, params, drop) -> (v_next, StepResult, dv_next)`` (tests/flatfoot_program.py)."""
+    return STEP_PROGRAM
 
 
 @pytest.fixture(scope="module")
@@ -102,20 +90,6 @@ def tangent_fn(step_program):
         return v1, dv1
 
     return tangent
-
-
-def _newton(params, step_fn, tangent_fn, iterations=4):
-    """Newton from the model's stored guess for ``params``; returns ``(v, J, residual)``."""
-    v = MODEL.initial_guess(params)
-    eye = jnp.eye(2)
-    for _ in range(iterations):
-        v1, _ = step_fn(v, params)
-        jac = jnp.stack([tangent_fn(v, eye[i], params)[1] for i in range(2)], axis=1)
-        res = v1 - v
-        if float(jnp.linalg.norm(res)) < 1e-10:
-            break
-        v = v - jnp.linalg.solve(jac - eye, res)
-    return v, jac, float(jnp.linalg.norm(res))
 
 
 @pytest.fixture(scope="module")
@@ -257,7 +231,7 @@ def test_energy_minus_actuator_work_is_constant_in_every_phase(params, walk):
         y0, phase, ctx = states[0]
         e0 = float(_energy(y0, params, phase, ctx))
         for y, _, _ in states[1:]:
-            balance = float(_energy(y, params, phase, ctx)) - float(fo.actuator_work(y0[:6], y[:6], params))
+            balance = float(_energy(y, params, phase, ctx)) - float(fo.actuator_work(y0[:6], y[:6], params, phase, ctx))
             assert abs(balance - e0) < 1e-8, (MODEL.phases[phase], balance - e0)
 
 
@@ -400,11 +374,6 @@ def test_h_max_is_the_first_failed_drop_of_single_trials(params, fixed_point, dr
 
 
 # ----------------------------------------------------------------- stated assumptions, checked
-def _with(params, **changes):
-    """``params`` with ``changes``, float64 like the defaults (one compiled signature)."""
-    return dict(params, **{k: jnp.asarray(v, jnp.float64) for k, v in changes.items()})
-
-
 @jax.jit
 def _stance_knee_torque(y, params, phase, ctx):
     """The ``KNEE_1`` multiplier: the stance knee's torque, positive while a stop would push."""
@@ -472,6 +441,7 @@ OPTION_CASES = {
     "inertia": {"rho_t": 0.1, "rho_s": 0.1},
     "swing_dorsi": {"swing_dorsi": 0.03},
     "hip_spring": {"k_hip": 0.002},
+    "ankle_push": {"ankle_push": 1e-4},
 }
 
 
@@ -490,7 +460,7 @@ def test_each_option_keeps_energy_balance_and_no_event_adds_energy(option_walk):
         y0, phase, ctx = states[0]
         e0 = float(_energy(y0, p, phase, ctx))
         for y, _, _ in states[1:]:
-            balance = float(_energy(y, p, phase, ctx)) - float(fo.actuator_work(y0[:6], y[:6], p))
+            balance = float(_energy(y, p, phase, ctx)) - float(fo.actuator_work(y0[:6], y[:6], p, phase, ctx))
             assert abs(balance - e0) < 1e-8, (MODEL.phases[phase], balance - e0)
     for guard, (y0, p0, c0), (y1, p1, c1) in _events(walk):
         assert float(_energy(y0, p, p0, c0)) - float(_energy(y1, p, p1, c1)) > -1e-10, MODEL.guards[guard]
@@ -539,26 +509,18 @@ def test_each_option_jacobian_matches_central_differences(params, step_fn, tange
         np.testing.assert_allclose(np.asarray(column), np.asarray((plus - minus) / (2 * h)), rtol=1e-4, atol=1e-5)
 
 
-# ----------------------------------------------------------------- the hip-spring gait (issue 14)
+# ----------------------------------------------------------------- the hip-spring gait (issue 14; tests/test_flatfoot_gaits.py)
 @pytest.fixture(scope="module")
 def hip_spring(params, step_fn, tangent_fn):
-    """``(params, v, J, residual)`` of the documented hip-spring gait, Newton from its stored guess."""
     p = _with(params, **HIP_SPRING_PARAMS)
     return (p, *_newton(p, step_fn, tangent_fn))
 
 
-def test_hip_spring_gait_is_stable_with_no_floor_penetration_tolerated(hip_spring, step_fn):
-    """Issue 14: a stable period-1 gait with ``scuff_tol = 0``, its swing foot never
-    below the ground: the tracked minimum and every recorded in-air sample >= 0,
-    the knee still flexed (its latch open) when the swing ankle passes the stance
-    ankle, and the seven phases in the paper's order."""
-    p, v, jac, residual = hip_spring
-    assert float(p["scuff_tol"]) == 0.0 and residual < 1e-10
-    assert float(np.max(np.abs(np.linalg.eigvals(np.asarray(jac))))) < 0.8
-    _, res = step_fn(v, p)
-    assert int(res.status) == Status.OK and float(cl.min_clearance(res.ctx)) > 0.0
-    names = [ev.GUARD_NAMES[c] for c in ph.decode_history(np.asarray(res.ctx))]
-    assert names == ["unlock", "knee_flex", "toe_off", "knee_strike", "heel_strike", "toe_strike"]
+def test_hip_spring_swing_foot_stays_above_the_ground_at_every_sample(hip_spring):
+    """Every recorded in-air sample of the hip-spring gait's swing foot is at or
+    above the ground, and the knee is still flexed (its latch open) when the swing
+    ankle passes the stance ankle."""
+    p, v, _, _ = hip_spring
     y0, phase0, ctx0 = MODEL.section_to_state(v, p)
     walk = record_walk(MODEL, p, y0, phase0, ctx0, n_steps=1, dt=0.02)
     passed = False
@@ -570,23 +532,3 @@ def test_hip_spring_gait_is_stable_with_no_floor_penetration_tolerated(hip_sprin
                 passed = True
                 assert phase == ph.SWING and geo.flexion(q, 2) > 1.0  # rad; knee_lock is 0.2
     assert passed
-
-
-def test_hip_spring_step_matches_the_independent_scipy_walker(hip_spring, step_fn):
-    """The hip spring written again in the SciPy reference: the same step from the
-    hip-spring gait (measured 1e-9 apart in ``v_next``, 1.1e-9 in the heel-strike
-    time) and the same events in the same order."""
-    from tests.reference import flatfoot as ref
-
-    p, v, _, _ = hip_spring
-    v1, res = step_fn(v, p)
-    v1_ref, info = ref.step_map(np.asarray(v), {k: float(x) for k, x in p.items()})
-    assert info["status"] == "ok"
-    np.testing.assert_allclose(v1_ref, np.asarray(v1), rtol=0.0, atol=1e-8)
-    assert abs(info["time"] - float(res.time)) < 1e-7
-    assert abs(info["min_clearance"] - float(cl.min_clearance(res.ctx))) < 1e-8
-    names = [ev.GUARD_NAMES[c] for c in ph.decode_history(np.asarray(res.ctx))]
-    assert [name for name, _ in info["events"]] == names
-    times = dict(info["events"])
-    for name in ("toe_off", "knee_strike", "heel_strike"):
-        assert abs(times[name] - float(res.ctx[ph.C["t_" + name]])) < 1e-7, name

@@ -286,18 +286,20 @@ def test_flatfoot_reference_mass_matrix_closed_form_is_the_point_sum():
         np.testing.assert_allclose(force, summed, atol=1e-13)
 
 
-def test_flatfoot_reference_conserves_energy_minus_hip_work_in_every_phase():
-    """Along the nominal step, energy (kinetic, gravity, springs) minus the hip's
-    work is constant within each phase, and the active constraints keep holding:
-    the hand-derived forces are those of the potentials (docs/model.md, "Forces")."""
+@pytest.mark.parametrize("option", [{}, {"ankle_push": 1e-4}], ids=["nominal", "ankle_push"])
+def test_flatfoot_reference_conserves_energy_minus_actuator_work_in_every_phase(option):
+    """Along the step from the nominal gait, energy (kinetic, gravity, springs)
+    minus the actuators' work is constant within each phase, and the active
+    constraints keep holding: the hand-derived forces are those of the potentials
+    (docs/model.md, "Forces"), the push-off torque's included."""
     from tests.reference import flatfoot as ff
     from tests.reference.flatfoot.constraints import ACTIVE, constraint_terms
     from tests.reference.flatfoot.dynamics import energy, vector_field
-    from tests.reference.flatfoot.forces import hip_work
+    from tests.reference.flatfoot.forces import actuator_work
     from tests.reference.flatfoot.resets import on_event
     from tests.reference.flatfoot.step import solve_phase
 
-    p = ff.params()
+    p = ff.params(**option)
     y, phase, ctx = ff.section_to_state(ff.NOMINAL_GUESS, p)
     t, visited = 0.0, []
     while True:
@@ -305,7 +307,7 @@ def test_flatfoot_reference_conserves_energy_minus_hip_work_in_every_phase():
         assert status is None
         sol = solve_ivp(lambda _, x: vector_field(x, p, phase, ctx), (t, t_ev), y, method="DOP853",
                         rtol=1e-12, atol=1e-12, t_eval=np.linspace(t, t_ev, 12))  # fmt: skip
-        balance = [energy(x, p, phase, ctx) - hip_work(y[:6], x[:6], p) for x in sol.y.T]
+        balance = [energy(x, p, phase, ctx) - actuator_work(y[:6], x[:6], p, phase, ctx) for x in sol.y.T]
         assert np.ptp(balance) < 1e-10, (phase, np.ptp(balance))
         rows = list(ACTIVE[phase])
         assert np.max(np.abs(constraint_terms(sol.y[:6, -1], sol.y[6:, -1], p, ctx)[0][rows])) < 1e-10

@@ -12,6 +12,12 @@ The hip torque is a constant ``P`` between the thighs, ``+P`` on the swing thigh
 ``-P`` on the stance thigh: the generalized force of the potential
 ``-P (thigh_2 - thigh_1)``, so within a step energy minus actuator work is conserved.
 The hip spring (``k_hip``) is a potential like the ankle springs, in every phase.
+
+The ankle push-off torque (``ankle_push``) is a second actuator: a constant torque
+at the trailing ankle while its foot pivots on its toe (push-off, shank release),
+acting with the ankle spring to turn the foot toe-down against the shank. It is the
+force of the potential ``-ankle_push * deflection`` (the deflection the toe spring
+stores), so its work is ``ankle_push`` times the change of that deflection.
 """
 
 from __future__ import annotations
@@ -23,9 +29,26 @@ from jaxwalk.models.flatfoot import geometry as geo
 from jaxwalk.models.flatfoot import phases as ph
 
 
-def _toe_spring(ankle_2, shank_2, params, ctx):
+def _toe_deflection(ankle_2, shank_2, params, ctx):
+    """The trailing ankle's deflection from relaxed while foot 2 pivots on its toe
+    (rad; positive with the shank turned forward of the foot's perpendicular)."""
     _, toe_2, _, _ = ph.anchors(params, ctx)
-    return 0.5 * params["k"] * (shank_2 - geo.toe_pivot_angle(ankle_2, toe_2)) ** 2
+    return shank_2 - geo.toe_pivot_angle(ankle_2, toe_2)
+
+
+def _toe_spring(ankle_2, shank_2, params, ctx):
+    return 0.5 * params["k"] * _toe_deflection(ankle_2, shank_2, params, ctx) ** 2
+
+
+def _toe_push(ankle_2, shank_2, params, ctx):
+    # The push-off torque's potential: it adds ankle_push to the spring's torque
+    # k * deflection, as a spring relaxed ankle_push / k further toe-down would.
+    return -params["ankle_push"] * _toe_deflection(ankle_2, shank_2, params, ctx)
+
+
+def _toe_load(ankle_2, shank_2, params, ctx):
+    """Everything the ankle feels from a toe-pivoting foot: spring and push-off torque."""
+    return _toe_spring(ankle_2, shank_2, params, ctx) + _toe_push(ankle_2, shank_2, params, ctx)
 
 
 def _heel_spring(ankle_2, shank_2, params, ctx):
@@ -68,21 +91,36 @@ def hip_torque(q, params):
     return jnp.zeros_like(q).at[geo.THIGH_2].set(P).at[geo.THIGH_1].set(-P)
 
 
+def push_potential(q, params, phase, ctx):
+    """Potential of the ankle push-off torque in ``phase`` (scalar; 0 off the toe).
+
+    Not stored energy: an actuator's, so its change is the actuator's work
+    (:func:`actuator_work`), not part of the walker's energy.
+    """
+    ankle_2, shank_2 = geo.ankle(q, params, 2), q[geo.SHANK_2]
+    return jnp.where(ph.ON_TOE[phase], _toe_push(ankle_2, shank_2, params, ctx), 0.0)
+
+
 def joint_forces(q, params, phase, ctx):
-    """Springs (``-dV/dq``) plus hip torque, ``(n_q,)``."""
+    """Springs (``-dV/dq``) plus hip torque and ankle push-off torque, ``(n_q,)``."""
     spring = -jax.grad(spring_energy)(q, params, phase, ctx)
-    return spring + hip_torque(q, params)
+    push = -jax.grad(push_potential)(q, params, phase, ctx)
+    return spring + push + hip_torque(q, params)
 
 
-def actuator_power(qd, params):
-    """Power of the hip actuator, ``P (thigh_2_dot - thigh_1_dot)``."""
-    return params["P"] * (qd[geo.THIGH_2] - qd[geo.THIGH_1])
+def actuator_power(q, qd, params, phase, ctx):
+    """Power of the hip and ankle actuators: ``P (thigh_2_dot - thigh_1_dot)`` plus
+    the push-off torque's ``-d(push_potential)/dt``."""
+    push = -jax.jvp(lambda q_: push_potential(q_, params, phase, ctx), (q,), (qd,))[1]
+    return params["P"] * (qd[geo.THIGH_2] - qd[geo.THIGH_1]) + push
 
 
-def actuator_work(q_start, q_end, params):
-    """Work of the hip actuator between two configurations of one step."""
+def actuator_work(q_start, q_end, params, phase, ctx):
+    """Work of the hip and ankle actuators between two configurations of one phase."""
     spread = lambda q: q[geo.THIGH_2] - q[geo.THIGH_1]
-    return params["P"] * (spread(q_end) - spread(q_start))
+    hip = params["P"] * (spread(q_end) - spread(q_start))
+    push = push_potential(q_start, params, phase, ctx) - push_potential(q_end, params, phase, ctx)
+    return hip + push
 
 
 def _pivot_reaction(multiplier, ankle_2, shank_2, params, ctx, anchor, spring):
@@ -116,7 +154,7 @@ def contact_reactions(q, lam, params, phase, ctx):
     cop = -params["k"] * q[geo.SHANK_1] / stance[1]
     ankle_2, shank_2 = geo.ankle(q, params, 2), q[geo.SHANK_2]
     _, toe_2, heel_2, _ = ph.anchors(params, ctx)
-    toe = _pivot_reaction(lam[ph.TOE_2], ankle_2, shank_2, params, ctx, toe_2, _toe_spring)
+    toe = _pivot_reaction(lam[ph.TOE_2], ankle_2, shank_2, params, ctx, toe_2, _toe_load)
     heel = _pivot_reaction(lam[ph.HEEL_2], ankle_2, shank_2, params, ctx, heel_2, _heel_spring)
     toe = jnp.where(ph.ON_TOE[phase], toe, 0.0)
     heel = jnp.where(ph.ON_HEEL[phase], heel, 0.0)

@@ -36,6 +36,13 @@ NOMINAL_GAIT = (0.16327572732, -0.186444529299)
 HIP_SPRING_PARAMS = {"k_hip": 0.125, "P": 0.0566, "swing_dorsi": 0.1, "knee_gate": 1.0, "scuff_tol": 0.0}
 #: Its fixed point ``(psi, psi_dot)``.
 HIP_SPRING_GAIT = (0.16811061518, -0.24466430626)
+#: Parameters (changes from the defaults) of the push-off gait, the human-like
+#: regime of issue 14: the hip-spring walker with an ankle push-off torque in
+#: double support, a stiffer hip spring and less hip torque, at Froude number
+#: about 0.1-0.15 (docs/model.md, "The push-off gait").
+PUSH_OFF_PARAMS = {**HIP_SPRING_PARAMS, "ankle_push": 0.09, "k_hip": 0.2, "P": 0.035}
+#: Its fixed point ``(psi, psi_dot)``.
+PUSH_OFF_GAIT = (0.276956094048, -0.394675360412)
 
 #: Rows that hold at the start of a step (push-off), used to build the section's velocity.
 _SECTION_ROWS = (ph.ANKLE_1_X, ph.ANKLE_1_Y, ph.KNEE_1, ph.KNEE_2, ph.TOE_2)
@@ -59,6 +66,7 @@ class FlatFootWalker(Walker):
         nonnegative("k", 0.03, "1", "ankle spring stiffness"),
         ParamSpec("P", 0.0076, "1", "hip torque, + on the swing thigh, - on the stance thigh"),
         nonnegative("k_hip", 0.0, "1", "hip spring stiffness between the thighs (M g L per rad), relaxed with the thighs together"),
+        nonnegative("ankle_push", 0.0, "1", "push-off torque at the trailing ankle while its foot pivots on its toe (M g L), toe-down on the foot"),
         nonnegative("delay", 0.066, "1", "knee-unlock delay after toe-strike"),
         ParamSpec("knee_lock", 0.2, "rad", "knee flexion at the extension stop, where a knee locks", lower=0.0, upper=0.5),
         nonnegative("scuff_tol", 0.03, "1", "allowed depth of the swing foot below ground"),
@@ -144,16 +152,23 @@ class FlatFootWalker(Walker):
         return jnp.stack([y[geo.THIGH_1] - delta, y[6 + geo.THIGH_1]])
 
     def initial_guess(self, params):
-        """The documented gait nearest ``params`` in hip-spring stiffness (docs/model.md).
+        """The documented gait nearest ``params`` in push-off torque, then in hip-spring
+        stiffness (docs/model.md).
 
-        Two gaits are documented: the nominal one of the defaults (no hip spring;
+        Three gaits are documented: the nominal one of the defaults (no hip spring;
         to 3e-8, its step-map residual 1.3e-8 at the default tolerances, and the
         SciPy walker in tests/reference/flatfoot agrees with the polished point to
-        1.6e-8) and the hip-spring gait of :data:`HIP_SPRING_PARAMS`, which walks
-        with the swing foot above the ground all swing.
+        1.6e-8); the hip-spring gait of :data:`HIP_SPRING_PARAMS`, which walks
+        with the swing foot above the ground all swing; and the push-off gait of
+        :data:`PUSH_OFF_PARAMS`, which does so at a human Froude number.
         """
+        push_off = params["ankle_push"] >= 0.5 * PUSH_OFF_PARAMS["ankle_push"]
         hip_spring = params["k_hip"] >= 0.5 * HIP_SPRING_PARAMS["k_hip"]
-        return jnp.where(hip_spring, jnp.array(HIP_SPRING_GAIT), jnp.array(NOMINAL_GAIT))
+        return jnp.where(
+            push_off,
+            jnp.array(PUSH_OFF_GAIT),
+            jnp.where(hip_spring, jnp.array(HIP_SPRING_GAIT), jnp.array(NOMINAL_GAIT)),
+        )
 
     # ------------------------------------------------------------ extras
     def reactions(self, y, params, phase, ctx):
@@ -163,12 +178,12 @@ class FlatFootWalker(Walker):
         return forces.contact_reactions(q, lam, params, phase, ctx)
 
     def actuator_power(self, q, qd, params, phase, ctx):
-        """Power of the hip actuator (the recorder integrates it to work)."""
-        return forces.actuator_power(qd, params)
+        """Power of the hip and ankle actuators (the recorder integrates it to work)."""
+        return forces.actuator_power(q, qd, params, phase, ctx)
 
-    def actuator_work(self, y_start, y_end, params):
-        """Hip-actuator work between two states of one step (no swap in between)."""
-        return forces.actuator_work(y_start[:6], y_end[:6], params)
+    def actuator_work(self, y_start, y_end, params, phase, ctx):
+        """Hip and ankle actuators' work between two states of one phase."""
+        return forces.actuator_work(y_start[:6], y_end[:6], params, phase, ctx)
 
     # ------------------------------------------------------------ drawing
     def _feet(self, q, params, ctx):

@@ -7,7 +7,10 @@ pivoting. Its spring stores ``V = k/2 (shank - phi)^2`` (in heel pivot relaxed a
 the landing angle ``shank + swing_dorsi``), and the generalized force is
 ``-dV/dq`` with ``d phi/dq`` written out from ``d atan2(w)/dw = (-w_y, w_x)/|w|^2``.
 The hip torque ``P`` acts ``+P`` on the swing thigh, ``-P`` on the stance thigh;
-the hip spring ``k_hip`` stores ``k_hip/2 (thigh_2 - thigh_1)^2``.
+the hip spring ``k_hip`` stores ``k_hip/2 (thigh_2 - thigh_1)^2``. The ankle
+push-off torque ``ankle_push`` (an actuator) adds a constant ``ankle_push`` to the
+toe spring's torque ``k (shank - phi)`` while foot 2 pivots on its toe; its work is
+``ankle_push`` times the change of ``shank - phi`` over the phase.
 """
 
 from __future__ import annotations
@@ -27,6 +30,13 @@ ON_TOE = (PUSH_OFF, SHANK_RELEASE)
 def _angle_gradient(w: np.ndarray) -> np.ndarray:
     """``d atan2(w_y, w_x) / dw``, ``(2,)``."""
     return np.array([-w[1], w[0]]) / float(w @ w)
+
+
+def _torque(stretch: float, p: Mapping[str, float], phase: int) -> float:
+    """The torque ``tau`` with ``-dV/dq = -tau (d rest/dq - d phi/dq)``: the spring's
+    ``k (rest - phi)``, less the push-off torque on the toe (whose potential is
+    ``-ankle_push (rest - phi)``: it turns the foot toe-down against the shank)."""
+    return p["k"] * stretch - (p["ankle_push"] if phase in ON_TOE else 0.0)
 
 
 def _pivot(q, p, ctx, phase):
@@ -62,7 +72,7 @@ def joint_forces(q: np.ndarray, p: Mapping[str, float], phase: int, ctx: dict) -
         dphi = sign * (_angle_gradient(w) @ jac)  # d phi / dq
         drest = np.zeros(N_Q)
         drest[SHANK_2] = 1.0  # the rest angle turns with the shank (swing_dorsi is constant)
-        force -= p["k"] * stretch * (drest - dphi)
+        force -= _torque(stretch, p, phase) * (drest - dphi)
     spread = q[THIGH_2] - q[THIGH_1]
     force[THIGH_2] += p["P"] - p["k_hip"] * spread
     force[THIGH_1] -= p["P"] - p["k_hip"] * spread
@@ -72,6 +82,15 @@ def joint_forces(q: np.ndarray, p: Mapping[str, float], phase: int, ctx: dict) -
 def hip_work(q_start: np.ndarray, q_end: np.ndarray, p: Mapping[str, float]) -> float:
     """Work of the hip torque between two configurations of one step."""
     return p["P"] * ((q_end[THIGH_2] - q_end[THIGH_1]) - (q_start[THIGH_2] - q_start[THIGH_1]))
+
+
+def actuator_work(q_start: np.ndarray, q_end: np.ndarray, p: Mapping[str, float], phase: int, ctx: dict) -> float:
+    """Work of the hip torque and the ankle push-off torque between two configurations of one phase."""
+    work = hip_work(q_start, q_end, p)
+    if phase in ON_TOE:
+        stretch = lambda q: q[SHANK_2] - math.atan2(*_pivot(q, p, ctx, phase)[0][::-1])
+        work += p["ankle_push"] * (stretch(q_end) - stretch(q_start))
+    return work
 
 
 def reactions(q: np.ndarray, lam: np.ndarray, p: Mapping[str, float], phase: int, ctx: dict):
@@ -91,7 +110,7 @@ def reactions(q: np.ndarray, lam: np.ndarray, p: Mapping[str, float], phase: int
         w, sign, rest = pivot
         radial = sign * w / math.hypot(w[0], w[1])  # (ankle - anchor) / |ankle - anchor|
         stretch = rest - math.atan2(w[1], w[0])
-        across = p["k"] * stretch * sign * _angle_gradient(w)  # -dV/da = k (rest - phi) dphi/da
+        across = _torque(stretch, p, phase) * sign * _angle_gradient(w)  # -dV/da = (k (rest - phi) - push) dphi/da
         if phase in ON_TOE:
             toe = lam[TOE_2] * radial + across
         else:

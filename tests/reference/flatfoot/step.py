@@ -26,7 +26,7 @@ from scipy.integrate import solve_ivp
 from tests.reference.flatfoot import constraints as con
 from tests.reference.flatfoot import guards as gd
 from tests.reference.flatfoot.dynamics import vector_field
-from tests.reference.flatfoot.forces import hip_work
+from tests.reference.flatfoot.forces import actuator_work
 from tests.reference.flatfoot.params import (
     IN_AIR, LATCHED, N_Q, PUSH_OFF, THIGH_1, X_H, Y_H, chord, foot_arms, params as default_params,
 )  # fmt: skip
@@ -114,7 +114,7 @@ def solve_phase(t0: float, y0: np.ndarray, p, phase: int, ctx: dict, rtol=RTOL, 
 
 def run_step(y: np.ndarray, phase: int, ctx: dict, p: Mapping[str, float], rtol=RTOL, atol=ATOL) -> dict:
     """One step from a full state; a dict with ``status`` (``"ok"`` or a status name),
-    ``y`` (after the swap), ``ctx``, ``time``, ``length``, ``work`` (hip), ``n_events``,
+    ``y`` (after the swap), ``ctx``, ``time``, ``length``, ``work`` (hip and ankle actuators), ``n_events``,
     ``events`` (the ``(name, t)`` log) and ``min_clearance`` (NaN without an interior minimum)."""
     t, n_events, length, work = 0.0, 0, 0.0, 0.0
     while True:
@@ -130,7 +130,7 @@ def run_step(y: np.ndarray, phase: int, ctx: dict, p: Mapping[str, float], rtol=
                 ctx = dict(ctx, min_clearance=min(ctx["min_clearance"], float(h[point])))
         if status is None:
             n_events += 1
-            work += hip_work(y[:N_Q], y_ev[:N_Q], p)
+            work += actuator_work(y[:N_Q], y_ev[:N_Q], p, phase, ctx)
             tr = on_event(name, t_ev, y_ev, p, phase, ctx)
             status = tr.status
             if status is None and not np.all(np.isfinite(tr.y)):

@@ -1,0 +1,56 @@
+"""The flat-foot step program the flat-foot test modules share, and their Newton helper.
+
+One jitted function at import, so every module of a test process that steps the
+walker reuses one compiled program (a step map and a separate ``jvp`` would
+compile twice; the ``jvp``'s primal is the step map).
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+
+from jaxwalk.models import get_model
+from jaxwalk.step import step_map
+
+MODEL = get_model("flatfoot")
+LEVEL = jnp.zeros((), jnp.float64)
+NO_TANGENT = jnp.zeros(2, jnp.float64)
+
+
+@jax.jit
+def STEP_PROGRAM(v, dv, params, drop):
+    """``(v, dv, params, drop) -> (v_next, StepResult, dv_next)``: one step onto
+    ground ``drop`` lower and its forward derivative along ``dv``."""
+    (v1, res), (dv1, _) = jax.jvp(lambda v_: step_map(MODEL, v_, params, ground_drop=drop), (v,), (dv,))
+    return v1, res, dv1
+
+
+def step_fn(v, params):
+    """``(v_next, StepResult)`` on level ground."""
+    return STEP_PROGRAM(v, NO_TANGENT, params, LEVEL)[:2]
+
+
+def tangent_fn(v, dv, params):
+    """``(v_next, dv_next)``: one column of the Jacobian at a time."""
+    v1, _, dv1 = STEP_PROGRAM(v, dv, params, LEVEL)
+    return v1, dv1
+
+
+def with_params(params, **changes):
+    """``params`` with ``changes``, float64 like the defaults (one compiled signature)."""
+    return dict(params, **{k: jnp.asarray(v, jnp.float64) for k, v in changes.items()})
+
+
+def newton(params, step, tangent, iterations=4):
+    """Newton from the model's stored guess for ``params``; returns ``(v, J, residual)``."""
+    v = MODEL.initial_guess(params)
+    eye = jnp.eye(2)
+    for _ in range(iterations):
+        v1, _ = step(v, params)
+        jac = jnp.stack([tangent(v, eye[i], params)[1] for i in range(2)], axis=1)
+        res = v1 - v
+        if float(jnp.linalg.norm(res)) < 1e-10:
+            break
+        v = v - jnp.linalg.solve(jac - eye, res)
+    return v, jac, float(jnp.linalg.norm(res))

@@ -1,0 +1,81 @@
+"""Issue 14: the documented gaits of the flat-foot walker that walk with no floor
+penetration (docs/model.md, "The hip-spring gait" and "The push-off gait"), each
+found by Newton from its stored guess, and each step held against the SciPy
+reference walker (tests/reference/flatfoot), which has the hip spring and the
+push-off torque written again by hand."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from jaxwalk.models.flatfoot import clearance as cl
+from jaxwalk.models.flatfoot import events as ev
+from jaxwalk.models.flatfoot import phases as ph
+from jaxwalk.models.flatfoot.model import HIP_SPRING_PARAMS, PUSH_OFF_PARAMS
+from jaxwalk.status import Status
+from tests.flatfoot_program import MODEL, newton, step_fn, tangent_fn, with_params
+
+#: Each documented gait's parameters and its lambda_max as docs/model.md gives it.
+DOCUMENTED_GAITS = {"hip_spring": (HIP_SPRING_PARAMS, 0.694), "push_off": (PUSH_OFF_PARAMS, 0.813)}
+
+
+@pytest.fixture(scope="module", params=list(DOCUMENTED_GAITS))
+def documented(request):
+    """``(params, v, J, residual, documented lambda_max)`` of a documented gait, Newton from its stored guess."""
+    changes, lambda_max = DOCUMENTED_GAITS[request.param]
+    p = with_params(MODEL.default_params(), **changes)
+    return (p, *newton(p, step_fn, tangent_fn), lambda_max)
+
+
+def test_documented_gaits_are_stable_with_no_floor_penetration_tolerated(documented):
+    """Issue 14: stable period-1 gaits with ``scuff_tol = 0``, the swing foot's
+    tracked lowest point above the ground, the seven phases in the paper's order."""
+    p, v, jac, residual, documented_lambda_max = documented
+    assert float(p["scuff_tol"]) == 0.0 and residual < 1e-9
+    lambda_max = float(np.max(np.abs(np.linalg.eigvals(np.asarray(jac)))))
+    assert lambda_max < 1.0 and abs(lambda_max - documented_lambda_max) < 1e-3
+    _, res = step_fn(v, p)
+    assert int(res.status) == Status.OK and float(cl.min_clearance(res.ctx)) > 0.0
+    names = [ev.GUARD_NAMES[c] for c in ph.decode_history(np.asarray(res.ctx))]
+    assert names == ["unlock", "knee_flex", "toe_off", "knee_strike", "heel_strike", "toe_strike"]
+
+
+
+
+def test_push_off_gait_walks_at_a_human_froude_number():
+    """Issue 14, item 3: from its documented guess Newton finds the push-off gait,
+    its Froude number (speed^2 / (g L)) in the human range 0.1-0.25 and its double
+    support (push-off and heel pivot) a human-like fraction of the step."""
+    p = with_params(MODEL.default_params(), **PUSH_OFF_PARAMS)
+    v, _, residual = newton(p, step_fn, tangent_fn)
+    _, res = step_fn(v, p)
+    assert residual < 1e-9 and int(res.status) == Status.OK
+    froude = (float(res.length) / float(res.time)) ** 2  # g = L = 1
+    assert 0.1 <= froude <= 0.25, froude
+    ctx, period = np.asarray(res.ctx), float(res.time)
+    double_support = (ctx[ph.C["t_toe_off"]] + period - ctx[ph.C["t_heel_strike"]]) / period
+    assert 0.15 < double_support < 0.4, double_support
+
+
+def test_documented_step_matches_the_independent_scipy_walker(documented):
+    """The hip spring and the push-off torque written again in the SciPy reference
+    (forces, the toe's ground reaction and the actuators' work by hand): the same
+    step from each documented gait (measured 1e-9 apart in ``v_next`` from the
+    hip-spring gait, 1.1e-9 in the heel-strike time), the same events in the same
+    order, the same actuator work."""
+    from tests.reference import flatfoot as ref
+
+    p, v, _, _, _ = documented
+    v1, res = step_fn(v, p)
+    v1_ref, info = ref.step_map(np.asarray(v), {k: float(x) for k, x in p.items()})
+    assert info["status"] == "ok"
+    np.testing.assert_allclose(v1_ref, np.asarray(v1), rtol=0.0, atol=1e-8)
+    assert abs(info["time"] - float(res.time)) < 1e-7
+    assert abs(info["work"] - float(res.work)) < 1e-8
+    assert abs(info["min_clearance"] - float(cl.min_clearance(res.ctx))) < 1e-8
+    names = [ev.GUARD_NAMES[c] for c in ph.decode_history(np.asarray(res.ctx))]
+    assert [name for name, _ in info["events"]] == names
+    times = dict(info["events"])
+    for name in ("toe_off", "knee_strike", "heel_strike"):
+        assert abs(times[name] - float(res.ctx[ph.C["t_" + name]])) < 1e-7, name
