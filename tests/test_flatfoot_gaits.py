@@ -6,6 +6,8 @@ push-off torque written again by hand."""
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import pytest
 
@@ -20,12 +22,17 @@ from tests.flatfoot_program import MODEL, newton, step_fn, tangent_fn, with_para
 DOCUMENTED_GAITS = {"hip_spring": (HIP_SPRING_PARAMS, 0.694), "push_off": (PUSH_OFF_PARAMS, 0.813)}
 
 
-@pytest.fixture(scope="module", params=list(DOCUMENTED_GAITS))
-def documented(request):
+@functools.cache
+def _gait(name):
     """``(params, v, J, residual, documented lambda_max)`` of a documented gait, Newton from its stored guess."""
-    changes, lambda_max = DOCUMENTED_GAITS[request.param]
+    changes, lambda_max = DOCUMENTED_GAITS[name]
     p = with_params(MODEL.default_params(), **changes)
     return (p, *newton(p, step_fn, tangent_fn), lambda_max)
+
+
+@pytest.fixture(scope="module", params=list(DOCUMENTED_GAITS))
+def documented(request):
+    return _gait(request.param)
 
 
 def test_documented_gaits_are_stable_with_no_floor_penetration_tolerated(documented):
@@ -47,8 +54,7 @@ def test_push_off_gait_walks_at_a_human_froude_number():
     """Issue 14, item 3: from its documented guess Newton finds the push-off gait,
     its Froude number (speed^2 / (g L)) in the human range 0.1-0.25 and its double
     support (push-off and heel pivot) a human-like fraction of the step."""
-    p = with_params(MODEL.default_params(), **PUSH_OFF_PARAMS)
-    v, _, residual = newton(p, step_fn, tangent_fn)
+    p, v, _, residual, _ = _gait("push_off")
     _, res = step_fn(v, p)
     assert residual < 1e-9 and int(res.status) == Status.OK
     froude = (float(res.length) / float(res.time)) ** 2  # g = L = 1
