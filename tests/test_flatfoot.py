@@ -442,6 +442,8 @@ OPTION_CASES = {
     "swing_dorsi": {"swing_dorsi": 0.03},
     "hip_spring": {"k_hip": 0.002},
     "ankle_push": {"ankle_push": 1e-4},
+    # (0.8 already scuffs from the nominal gait: the swing starts slower)
+    "hip_double_support": {"k_hip": 0.002, "hip_double_support": 0.9},
 }
 
 

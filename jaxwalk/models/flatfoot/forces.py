@@ -13,6 +13,13 @@ The hip torque is a constant ``P`` between the thighs, ``+P`` on the swing thigh
 ``-P (thigh_2 - thigh_1)``, so within a step energy minus actuator work is conserved.
 The hip spring (``k_hip``) is a potential like the ankle springs, in every phase.
 
+While both feet touch the ground (push-off, shank release, heel pivot) only the
+fraction ``hip_double_support`` of the hip torque and of the hip spring's force
+acts (default 1: all of it). The spring's energy is stored in full in every phase
+(so no event changes it); the part withheld in double support is an actuator
+holding the spring back, whose potential is ``-(1 - g) k_hip/2 (thigh_2 - thigh_1)^2``
+and whose work is counted with the hip torque's.
+
 The ankle push-off torque (``ankle_push``) is a second actuator: a constant torque
 at the trailing ankle while its foot pivots on its toe (push-off, shank release),
 acting with the ankle spring to turn the foot toe-down against the shank. It is the
@@ -85,42 +92,48 @@ def hip_spring_energy(q, params):
     return 0.5 * params["k_hip"] * (q[geo.THIGH_2] - q[geo.THIGH_1]) ** 2
 
 
-def hip_torque(q, params):
-    """Generalized force of the hip actuator, ``(n_q,)``."""
-    P = params["P"]
-    return jnp.zeros_like(q).at[geo.THIGH_2].set(P).at[geo.THIGH_1].set(-P)
+def hip_gain(params, phase):
+    """Fraction of the hip torque and hip spring force acting in ``phase`` (scalar):
+    1 with foot 2 in the air, ``hip_double_support`` while both feet touch the ground."""
+    both_down = ph.ON_TOE[phase] | ph.ON_HEEL[phase]
+    return jnp.where(both_down, params["hip_double_support"], 1.0)
 
 
 def push_potential(q, params, phase, ctx):
-    """Potential of the ankle push-off torque in ``phase`` (scalar; 0 off the toe).
-
-    Not stored energy: an actuator's, so its change is the actuator's work
-    (:func:`actuator_work`), not part of the walker's energy.
-    """
+    """Potential of the ankle push-off torque in ``phase`` (scalar; 0 off the toe)."""
     ankle_2, shank_2 = geo.ankle(q, params, 2), q[geo.SHANK_2]
     return jnp.where(ph.ON_TOE[phase], _toe_push(ankle_2, shank_2, params, ctx), 0.0)
 
 
+def actuator_potential(q, params, phase, ctx):
+    """Potential of every actuator in ``phase`` (scalar): the hip torque
+    ``-g P (thigh_2 - thigh_1)``, the hold on the hip spring ``-(1 - g) V_hip``
+    (``g`` = :func:`hip_gain`) and the ankle push-off torque.
+
+    Not stored energy: its force is the actuators', and its decrease over a phase
+    is their work (:func:`actuator_work`), not part of the walker's energy.
+    """
+    g = hip_gain(params, phase)
+    hip = -g * params["P"] * (q[geo.THIGH_2] - q[geo.THIGH_1])
+    hold = -(1.0 - g) * hip_spring_energy(q, params)
+    return hip + hold + push_potential(q, params, phase, ctx)
+
+
 def joint_forces(q, params, phase, ctx):
-    """Springs (``-dV/dq``) plus hip torque and ankle push-off torque, ``(n_q,)``."""
+    """Springs (``-dV/dq``) plus the actuators (``-dU/dq``, :func:`actuator_potential`), ``(n_q,)``."""
     spring = -jax.grad(spring_energy)(q, params, phase, ctx)
-    push = -jax.grad(push_potential)(q, params, phase, ctx)
-    return spring + push + hip_torque(q, params)
+    actuators = -jax.grad(actuator_potential)(q, params, phase, ctx)
+    return spring + actuators
 
 
 def actuator_power(q, qd, params, phase, ctx):
-    """Power of the hip and ankle actuators: ``P (thigh_2_dot - thigh_1_dot)`` plus
-    the push-off torque's ``-d(push_potential)/dt``."""
-    push = -jax.jvp(lambda q_: push_potential(q_, params, phase, ctx), (q,), (qd,))[1]
-    return params["P"] * (qd[geo.THIGH_2] - qd[geo.THIGH_1]) + push
+    """Power of the hip and ankle actuators, ``-dU/dt`` (:func:`actuator_potential`)."""
+    return -jax.jvp(lambda q_: actuator_potential(q_, params, phase, ctx), (q,), (qd,))[1]
 
 
 def actuator_work(q_start, q_end, params, phase, ctx):
     """Work of the hip and ankle actuators between two configurations of one phase."""
-    spread = lambda q: q[geo.THIGH_2] - q[geo.THIGH_1]
-    hip = params["P"] * (spread(q_end) - spread(q_start))
-    push = push_potential(q_start, params, phase, ctx) - push_potential(q_end, params, phase, ctx)
-    return hip + push
+    return actuator_potential(q_start, params, phase, ctx) - actuator_potential(q_end, params, phase, ctx)
 
 
 def _pivot_reaction(multiplier, ankle_2, shank_2, params, ctx, anchor, spring):

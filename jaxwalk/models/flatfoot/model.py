@@ -67,6 +67,7 @@ class FlatFootWalker(Walker):
         ParamSpec("P", 0.0076, "1", "hip torque, + on the swing thigh, - on the stance thigh"),
         nonnegative("k_hip", 0.0, "1", "hip spring stiffness between the thighs (M g L per rad), relaxed with the thighs together"),
         nonnegative("ankle_push", 0.0, "1", "push-off torque at the trailing ankle while its foot pivots on its toe (M g L), toe-down on the foot"),
+        ParamSpec("hip_double_support", 1.0, "1", "fraction of the hip torque and hip spring acting while both feet touch the ground (0: the hip drives the swing leg only)", lower=0.0, upper=1.0),
         nonnegative("delay", 0.066, "1", "knee-unlock delay after toe-strike"),
         ParamSpec("knee_lock", 0.2, "rad", "knee flexion at the extension stop, where a knee locks", lower=0.0, upper=0.5),
         nonnegative("scuff_tol", 0.03, "1", "allowed depth of the swing foot below ground"),

@@ -7,7 +7,11 @@ pivoting. Its spring stores ``V = k/2 (shank - phi)^2`` (in heel pivot relaxed a
 the landing angle ``shank + swing_dorsi``), and the generalized force is
 ``-dV/dq`` with ``d phi/dq`` written out from ``d atan2(w)/dw = (-w_y, w_x)/|w|^2``.
 The hip torque ``P`` acts ``+P`` on the swing thigh, ``-P`` on the stance thigh;
-the hip spring ``k_hip`` stores ``k_hip/2 (thigh_2 - thigh_1)^2``. The ankle
+the hip spring ``k_hip`` stores ``k_hip/2 (thigh_2 - thigh_1)^2``. While both feet
+touch the ground (foot 2 on its toe or heel) both act at the fraction
+``g = hip_double_support``: the torque ``g P`` is an actuator, and of the spring's
+force only ``g`` acts, the rest held back by an actuator whose work over a phase is
+``(1 - g) k_hip/2`` times the change of ``(thigh_2 - thigh_1)^2``. The ankle
 push-off torque ``ankle_push`` (an actuator) adds a constant ``ankle_push`` to the
 toe spring's torque ``k (shank - phi)`` while foot 2 pivots on its toe; its work is
 ``ankle_push`` times the change of ``shank - phi`` over the phase.
@@ -74,19 +78,27 @@ def joint_forces(q: np.ndarray, p: Mapping[str, float], phase: int, ctx: dict) -
         drest[SHANK_2] = 1.0  # the rest angle turns with the shank (swing_dorsi is constant)
         force -= _torque(stretch, p, phase) * (drest - dphi)
     spread = q[THIGH_2] - q[THIGH_1]
-    force[THIGH_2] += p["P"] - p["k_hip"] * spread
-    force[THIGH_1] -= p["P"] - p["k_hip"] * spread
+    g = _hip_gain(p, phase)
+    force[THIGH_2] += g * (p["P"] - p["k_hip"] * spread)
+    force[THIGH_1] -= g * (p["P"] - p["k_hip"] * spread)
     return force
 
 
-def hip_work(q_start: np.ndarray, q_end: np.ndarray, p: Mapping[str, float]) -> float:
-    """Work of the hip torque between two configurations of one step."""
-    return p["P"] * ((q_end[THIGH_2] - q_end[THIGH_1]) - (q_start[THIGH_2] - q_start[THIGH_1]))
+def _hip_gain(p: Mapping[str, float], phase: int) -> float:
+    """The fraction of the hip torque and spring acting in ``phase``."""
+    return p["hip_double_support"] if phase in ON_TOE or phase == HEEL_PIVOT else 1.0
+
+
+def hip_work(q_start: np.ndarray, q_end: np.ndarray, p: Mapping[str, float], phase: int) -> float:
+    """Work of the hip torque and of the hold on the hip spring between two configurations of one phase."""
+    g = _hip_gain(p, phase)
+    s0, s1 = q_start[THIGH_2] - q_start[THIGH_1], q_end[THIGH_2] - q_end[THIGH_1]
+    return g * p["P"] * (s1 - s0) + (1.0 - g) * 0.5 * p["k_hip"] * (s1**2 - s0**2)
 
 
 def actuator_work(q_start: np.ndarray, q_end: np.ndarray, p: Mapping[str, float], phase: int, ctx: dict) -> float:
-    """Work of the hip torque and the ankle push-off torque between two configurations of one phase."""
-    work = hip_work(q_start, q_end, p)
+    """Work of the hip actuators and the ankle push-off torque between two configurations of one phase."""
+    work = hip_work(q_start, q_end, p, phase)
     if phase in ON_TOE:
         stretch = lambda q: q[SHANK_2] - math.atan2(*_pivot(q, p, ctx, phase)[0][::-1])
         work += p["ankle_push"] * (stretch(q_end) - stretch(q_start))
