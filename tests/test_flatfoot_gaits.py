@@ -1,8 +1,9 @@
 """Issue 14: the documented gaits of the flat-foot walker that walk with no floor
-penetration (docs/model.md, "The hip-spring gait" and "The push-off gait"), each
-found by Newton from its stored guess, and each step held against the SciPy
-reference walker (tests/reference/flatfoot), which has the hip spring and the
-push-off torque written again by hand."""
+penetration (docs/model.md, "The hip-spring gait", "The push-off gait" and "The
+swing-hip gait"), each found by Newton from its stored guess, and each step held
+against the SciPy reference walker (tests/reference/flatfoot), which has the hip
+spring, the push-off torque and the hip's share in double support written again
+by hand."""
 
 from __future__ import annotations
 
@@ -14,12 +15,16 @@ import pytest
 from jaxwalk.models.flatfoot import clearance as cl
 from jaxwalk.models.flatfoot import events as ev
 from jaxwalk.models.flatfoot import phases as ph
-from jaxwalk.models.flatfoot.model import HIP_SPRING_PARAMS, PUSH_OFF_PARAMS
+from jaxwalk.models.flatfoot.model import HIP_SPRING_PARAMS, PUSH_OFF_PARAMS, SWING_HIP_PARAMS
 from jaxwalk.status import Status
 from tests.flatfoot_program import MODEL, newton, step_fn, tangent_fn, with_params
 
 #: Each documented gait's parameters and its lambda_max as docs/model.md gives it.
-DOCUMENTED_GAITS = {"hip_spring": (HIP_SPRING_PARAMS, 0.694), "push_off": (PUSH_OFF_PARAMS, 0.813)}
+DOCUMENTED_GAITS = {
+    "hip_spring": (HIP_SPRING_PARAMS, 0.694),
+    "push_off": (PUSH_OFF_PARAMS, 0.813),
+    "swing_hip": (SWING_HIP_PARAMS, 0.752),
+}
 
 
 @functools.cache
@@ -85,3 +90,51 @@ def test_documented_step_matches_the_independent_scipy_walker(documented):
     times = dict(info["events"])
     for name in ("toe_off", "knee_strike", "heel_strike"):
         assert abs(times[name] - float(res.ctx[ph.C["t_" + name]])) < 1e-7, name
+
+
+def _friction_demand(v, p):
+    """``(stance, heel)``: the largest ``|T| / N`` of the stance foot over one step, and
+    of the landing heel in heel pivot, sampled on the SciPy reference walker's step
+    from ``v`` (12 samples per phase, each phase's ends included)."""
+    from scipy.integrate import solve_ivp
+
+    from tests.reference import flatfoot as ref
+    from tests.reference.flatfoot.dynamics import accelerations, vector_field
+    from tests.reference.flatfoot.forces import reactions
+    from tests.reference.flatfoot.params import HEEL_PIVOT
+    from tests.reference.flatfoot.resets import on_event
+    from tests.reference.flatfoot.step import solve_phase
+
+    p = {k: float(x) for k, x in p.items()}
+    y, phase, ctx = ref.section_to_state(np.asarray(v), p)
+    t, stance, heel = 0.0, 0.0, 0.0
+    while True:
+        status, name, t_ev, y_ev, _ = solve_phase(t, y, p, phase, ctx)
+        assert status is None
+        sol = solve_ivp(lambda _, x: vector_field(x, p, phase, ctx), (t, t_ev), y, method="DOP853",
+                        rtol=1e-10, atol=1e-10, t_eval=np.linspace(t, t_ev, 12))  # fmt: skip
+        for x in sol.y.T:
+            f_stance, _, f_heel = reactions(x[:6], accelerations(x, p, phase, ctx)[1], p, phase, ctx)
+            stance = max(stance, abs(f_stance[0]) / f_stance[1])
+            if phase == HEEL_PIVOT:
+                heel = max(heel, abs(f_heel[0]) / f_heel[1])
+        tr = on_event(name, t_ev, y_ev, p, phase, ctx)
+        assert tr.status is None
+        if tr.done:
+            return stance, heel
+        t, y, phase, ctx = t_ev, tr.y, tr.phase, tr.ctx
+
+
+def test_swing_hip_gait_needs_a_shoe_friction_at_the_stance_foot():
+    """docs/model.md, "The swing-hip gait": with half the hip's torque and spring in
+    double support the stance foot's |T|/N falls from 1.11 (push-off gait) to 0.31,
+    inside a shoe's friction cone (mu about 0.8). What still needs more friction is
+    the landing heel just after heel-strike, where its normal force starts near
+    zero (|T|/N about 2.8): the gait is not yet admissible at mu = 0.8."""
+    push_off, swing_hip = (_friction_demand(_gait(name)[1], _gait(name)[0]) for name in ("push_off", "swing_hip"))
+    assert push_off[0] > 1.0, push_off
+    assert swing_hip[0] < 0.35, swing_hip
+    assert swing_hip[1] > 2.0, swing_hip
+    p, v = _gait("swing_hip")[:2]
+    _, res = step_fn(v, with_params(p, mu=0.8))
+    assert int(res.status) == Status.SLIPPING

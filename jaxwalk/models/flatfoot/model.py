@@ -43,6 +43,12 @@ HIP_SPRING_GAIT = (0.16811061518, -0.24466430626)
 PUSH_OFF_PARAMS = {**HIP_SPRING_PARAMS, "ankle_push": 0.09, "k_hip": 0.2, "P": 0.035}
 #: Its fixed point ``(psi, psi_dot)``.
 PUSH_OFF_GAIT = (0.276956094048, -0.394675360412)
+#: Parameters of the swing-hip gait: the push-off walker with half its hip torque
+#: and hip spring in double support, where they only squeeze the feet against
+#: the ground's friction (docs/model.md, "The swing-hip gait").
+SWING_HIP_PARAMS = {**PUSH_OFF_PARAMS, "hip_double_support": 0.5}
+#: Its fixed point ``(psi, psi_dot)``.
+SWING_HIP_GAIT = (0.313554485853, -0.400039344583)
 
 #: Rows that hold at the start of a step (push-off), used to build the section's velocity.
 _SECTION_ROWS = (ph.ANKLE_1_X, ph.ANKLE_1_Y, ph.KNEE_1, ph.KNEE_2, ph.TOE_2)
@@ -153,21 +159,24 @@ class FlatFootWalker(Walker):
         return jnp.stack([y[geo.THIGH_1] - delta, y[6 + geo.THIGH_1]])
 
     def initial_guess(self, params):
-        """The documented gait nearest ``params`` in push-off torque, then in hip-spring
-        stiffness (docs/model.md).
+        """The documented gait nearest ``params`` in push-off torque, then in the hip's
+        share in double support, then in hip-spring stiffness (docs/model.md).
 
-        Three gaits are documented: the nominal one of the defaults (no hip spring;
+        Four gaits are documented: the nominal one of the defaults (no hip spring;
         to 3e-8, its step-map residual 1.3e-8 at the default tolerances, and the
         SciPy walker in tests/reference/flatfoot agrees with the polished point to
         1.6e-8); the hip-spring gait of :data:`HIP_SPRING_PARAMS`, which walks
-        with the swing foot above the ground all swing; and the push-off gait of
-        :data:`PUSH_OFF_PARAMS`, which does so at a human Froude number.
+        with the swing foot above the ground all swing; the push-off gait of
+        :data:`PUSH_OFF_PARAMS`, which does so at a human Froude number; and the
+        swing-hip gait of :data:`SWING_HIP_PARAMS`, whose stance foot needs a
+        friction coefficient of 0.31 where the push-off gait's needs 1.11.
         """
         push_off = params["ankle_push"] >= 0.5 * PUSH_OFF_PARAMS["ankle_push"]
+        swing_hip = params["hip_double_support"] <= 0.75
         hip_spring = params["k_hip"] >= 0.5 * HIP_SPRING_PARAMS["k_hip"]
         return jnp.where(
             push_off,
-            jnp.array(PUSH_OFF_GAIT),
+            jnp.where(swing_hip, jnp.array(SWING_HIP_GAIT), jnp.array(PUSH_OFF_GAIT)),
             jnp.where(hip_spring, jnp.array(HIP_SPRING_GAIT), jnp.array(NOMINAL_GAIT)),
         )
 
