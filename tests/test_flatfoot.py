@@ -444,6 +444,7 @@ OPTION_CASES = {
     "ankle_push": {"ankle_push": 1e-4},
     # (0.8 already scuffs from the nominal gait: the swing starts slower)
     "hip_double_support": {"k_hip": 0.002, "hip_double_support": 0.9},
+    "heel_brake": {"heel_brake": 1e-4},
 }
 
 

@@ -25,6 +25,10 @@ at the trailing ankle while its foot pivots on its toe (push-off, shank release)
 acting with the ankle spring to turn the foot toe-down against the shank. It is the
 force of the potential ``-ankle_push * deflection`` (the deflection the toe spring
 stores), so its work is ``ankle_push`` times the change of that deflection.
+The heel-brake torque (``heel_brake``) is its counterpart on the landing foot: a
+constant dorsiflexor torque while foot 2 pivots on its heel, resisting the
+foot's fall to flat, the potential ``heel_brake * stretch`` of the heel spring's
+stretch. Both load their contact: the ground forces include them.
 """
 
 from __future__ import annotations
@@ -58,13 +62,30 @@ def _toe_load(ankle_2, shank_2, params, ctx):
     return _toe_spring(ankle_2, shank_2, params, ctx) + _toe_push(ankle_2, shank_2, params, ctx)
 
 
+def _heel_stretch(ankle_2, shank_2, params, ctx):
+    """The landing ankle's deflection from its landing angle while foot 2 pivots on
+    its heel (rad; grows as the foot falls toward flat)."""
+    _, _, heel_2, _ = ph.anchors(params, ctx)
+    rest = shank_2 + params["swing_dorsi"]
+    return rest - geo.heel_pivot_angle(ankle_2, heel_2)
+
+
 def _heel_spring(ankle_2, shank_2, params, ctx):
     # Relaxed at the landing angle (shank + swing_dorsi), so heel-strike stores
     # nothing: the dorsiflexor that held the foot in the air yields with the
     # spring's stiffness until the foot is flat, and lets go at toe-strike (a loss).
-    _, _, heel_2, _ = ph.anchors(params, ctx)
-    rest = shank_2 + params["swing_dorsi"]
-    return 0.5 * params["k"] * (rest - geo.heel_pivot_angle(ankle_2, heel_2)) ** 2
+    return 0.5 * params["k"] * _heel_stretch(ankle_2, shank_2, params, ctx) ** 2
+
+
+def _heel_brake(ankle_2, shank_2, params, ctx):
+    # The heel-brake torque's potential: it adds heel_brake to the spring's torque
+    # k * stretch, resisting the foot's fall from the first instant of heel pivot.
+    return params["heel_brake"] * _heel_stretch(ankle_2, shank_2, params, ctx)
+
+
+def _heel_load(ankle_2, shank_2, params, ctx):
+    """Everything the ankle feels from a heel-pivoting foot: spring and heel-brake torque."""
+    return _heel_spring(ankle_2, shank_2, params, ctx) + _heel_brake(ankle_2, shank_2, params, ctx)
 
 
 def spring_energy(q, params, phase, ctx):
@@ -99,16 +120,21 @@ def hip_gain(params, phase):
     return jnp.where(both_down, params["hip_double_support"], 1.0)
 
 
-def push_potential(q, params, phase, ctx):
-    """Potential of the ankle push-off torque in ``phase`` (scalar; 0 off the toe)."""
+def ankle_potential(q, params, phase, ctx):
+    """Potential of the trailing ankle's actuators in ``phase`` (scalar): the push-off
+    torque on the toe, the heel-brake torque on the heel, 0 in the air."""
     ankle_2, shank_2 = geo.ankle(q, params, 2), q[geo.SHANK_2]
-    return jnp.where(ph.ON_TOE[phase], _toe_push(ankle_2, shank_2, params, ctx), 0.0)
+    return jnp.where(
+        ph.ON_TOE[phase],
+        _toe_push(ankle_2, shank_2, params, ctx),
+        jnp.where(ph.ON_HEEL[phase], _heel_brake(ankle_2, shank_2, params, ctx), 0.0),
+    )
 
 
 def actuator_potential(q, params, phase, ctx):
     """Potential of every actuator in ``phase`` (scalar): the hip torque
     ``-g P (thigh_2 - thigh_1)``, the hold on the hip spring ``-(1 - g) V_hip``
-    (``g`` = :func:`hip_gain`) and the ankle push-off torque.
+    (``g`` = :func:`hip_gain`) and the ankle's push-off and heel-brake torques.
 
     Not stored energy: its force is the actuators', and its decrease over a phase
     is their work (:func:`actuator_work`), not part of the walker's energy.
@@ -116,7 +142,7 @@ def actuator_potential(q, params, phase, ctx):
     g = hip_gain(params, phase)
     hip = -g * params["P"] * (q[geo.THIGH_2] - q[geo.THIGH_1])
     hold = -(1.0 - g) * hip_spring_energy(q, params)
-    return hip + hold + push_potential(q, params, phase, ctx)
+    return hip + hold + ankle_potential(q, params, phase, ctx)
 
 
 def joint_forces(q, params, phase, ctx):
@@ -168,7 +194,7 @@ def contact_reactions(q, lam, params, phase, ctx):
     ankle_2, shank_2 = geo.ankle(q, params, 2), q[geo.SHANK_2]
     _, toe_2, heel_2, _ = ph.anchors(params, ctx)
     toe = _pivot_reaction(lam[ph.TOE_2], ankle_2, shank_2, params, ctx, toe_2, _toe_load)
-    heel = _pivot_reaction(lam[ph.HEEL_2], ankle_2, shank_2, params, ctx, heel_2, _heel_spring)
+    heel = _pivot_reaction(lam[ph.HEEL_2], ankle_2, shank_2, params, ctx, heel_2, _heel_load)
     toe = jnp.where(ph.ON_TOE[phase], toe, 0.0)
     heel = jnp.where(ph.ON_HEEL[phase], heel, 0.0)
     return stance, cop, toe, heel

@@ -45,10 +45,11 @@ PUSH_OFF_PARAMS = {**HIP_SPRING_PARAMS, "ankle_push": 0.09, "k_hip": 0.2, "P": 0
 PUSH_OFF_GAIT = (0.276956094048, -0.394675360412)
 #: Parameters of the swing-hip gait: the push-off walker with half its hip torque
 #: and hip spring in double support, where they only squeeze the feet against
-#: the ground's friction (docs/model.md, "The swing-hip gait").
-SWING_HIP_PARAMS = {**PUSH_OFF_PARAMS, "hip_double_support": 0.5}
+#: the ground's friction, and a heel-brake torque that loads the landing heel
+#: from the first instant (docs/model.md, "The swing-hip gait").
+SWING_HIP_PARAMS = {**PUSH_OFF_PARAMS, "hip_double_support": 0.5, "heel_brake": 0.01}
 #: Its fixed point ``(psi, psi_dot)``.
-SWING_HIP_GAIT = (0.313554485853, -0.400039344583)
+SWING_HIP_GAIT = (0.307231367500, -0.390491088404)
 
 #: Rows that hold at the start of a step (push-off), used to build the section's velocity.
 _SECTION_ROWS = (ph.ANKLE_1_X, ph.ANKLE_1_Y, ph.KNEE_1, ph.KNEE_2, ph.TOE_2)
@@ -73,6 +74,7 @@ class FlatFootWalker(Walker):
         ParamSpec("P", 0.0076, "1", "hip torque, + on the swing thigh, - on the stance thigh"),
         nonnegative("k_hip", 0.0, "1", "hip spring stiffness between the thighs (M g L per rad), relaxed with the thighs together"),
         nonnegative("ankle_push", 0.0, "1", "push-off torque at the trailing ankle while its foot pivots on its toe (M g L), toe-down on the foot"),
+        nonnegative("heel_brake", 0.0, "1", "dorsiflexor torque at the landing ankle while its foot pivots on its heel (M g L), resisting the foot's fall to flat"),
         ParamSpec("hip_double_support", 1.0, "1", "fraction of the hip torque and hip spring acting while both feet touch the ground (0: the hip drives the swing leg only)", lower=0.0, upper=1.0),
         nonnegative("delay", 0.066, "1", "knee-unlock delay after toe-strike"),
         ParamSpec("knee_lock", 0.2, "rad", "knee flexion at the extension stop, where a knee locks", lower=0.0, upper=0.5),
@@ -168,8 +170,9 @@ class FlatFootWalker(Walker):
         1.6e-8); the hip-spring gait of :data:`HIP_SPRING_PARAMS`, which walks
         with the swing foot above the ground all swing; the push-off gait of
         :data:`PUSH_OFF_PARAMS`, which does so at a human Froude number; and the
-        swing-hip gait of :data:`SWING_HIP_PARAMS`, whose stance foot needs a
-        friction coefficient of 0.31 where the push-off gait's needs 1.11.
+        swing-hip gait of :data:`SWING_HIP_PARAMS`, whose stance foot and landing
+        heel need friction coefficients of 0.28 and 0.24 where the push-off gait's
+        need 1.11 and 3.1.
         """
         push_off = params["ankle_push"] >= 0.5 * PUSH_OFF_PARAMS["ankle_push"]
         swing_hip = params["hip_double_support"] <= 0.75

@@ -14,7 +14,10 @@ force only ``g`` acts, the rest held back by an actuator whose work over a phase
 ``(1 - g) k_hip/2`` times the change of ``(thigh_2 - thigh_1)^2``. The ankle
 push-off torque ``ankle_push`` (an actuator) adds a constant ``ankle_push`` to the
 toe spring's torque ``k (shank - phi)`` while foot 2 pivots on its toe; its work is
-``ankle_push`` times the change of ``shank - phi`` over the phase.
+``ankle_push`` times the change of ``shank - phi`` over the phase. The heel-brake
+torque ``heel_brake`` (an actuator) adds a constant ``heel_brake`` to the heel
+spring's torque while foot 2 pivots on its heel; its work is ``-heel_brake``
+times the change of the heel spring's stretch.
 """
 
 from __future__ import annotations
@@ -39,8 +42,11 @@ def _angle_gradient(w: np.ndarray) -> np.ndarray:
 def _torque(stretch: float, p: Mapping[str, float], phase: int) -> float:
     """The torque ``tau`` with ``-dV/dq = -tau (d rest/dq - d phi/dq)``: the spring's
     ``k (rest - phi)``, less the push-off torque on the toe (whose potential is
-    ``-ankle_push (rest - phi)``: it turns the foot toe-down against the shank)."""
-    return p["k"] * stretch - (p["ankle_push"] if phase in ON_TOE else 0.0)
+    ``-ankle_push (rest - phi)``: it turns the foot toe-down against the shank),
+    plus the heel-brake torque on the heel (potential ``heel_brake (rest - phi)``:
+    it resists the foot's fall to flat)."""
+    actuator = -p["ankle_push"] if phase in ON_TOE else p["heel_brake"] if phase == HEEL_PIVOT else 0.0
+    return p["k"] * stretch + actuator
 
 
 def _pivot(q, p, ctx, phase):
@@ -102,6 +108,9 @@ def actuator_work(q_start: np.ndarray, q_end: np.ndarray, p: Mapping[str, float]
     if phase in ON_TOE:
         stretch = lambda q: q[SHANK_2] - math.atan2(*_pivot(q, p, ctx, phase)[0][::-1])
         work += p["ankle_push"] * (stretch(q_end) - stretch(q_start))
+    if phase == HEEL_PIVOT:
+        stretch = lambda q: _pivot(q, p, ctx, phase)[2] - math.atan2(*_pivot(q, p, ctx, phase)[0][::-1])
+        work -= p["heel_brake"] * (stretch(q_end) - stretch(q_start))
     return work
 
 
