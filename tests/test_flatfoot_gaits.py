@@ -15,7 +15,7 @@ import pytest
 from jaxwalk.models.flatfoot import clearance as cl
 from jaxwalk.models.flatfoot import events as ev
 from jaxwalk.models.flatfoot import phases as ph
-from jaxwalk.models.flatfoot.model import HIP_SPRING_PARAMS, PUSH_OFF_PARAMS, SWING_HIP_PARAMS
+from jaxwalk.models.flatfoot.model import HIP_SPRING_PARAMS, PUSH_OFF_PARAMS, SHOE_PARAMS, SWING_HIP_PARAMS
 from jaxwalk.status import Status
 from tests.flatfoot_program import MODEL, newton, step_fn, tangent_fn, with_params
 
@@ -24,6 +24,7 @@ DOCUMENTED_GAITS = {
     "hip_spring": (HIP_SPRING_PARAMS, 0.694),
     "push_off": (PUSH_OFF_PARAMS, 0.813),
     "swing_hip": (SWING_HIP_PARAMS, 0.750),
+    "shoe": (SHOE_PARAMS, 0.554),
 }
 
 
@@ -138,3 +139,18 @@ def test_swing_hip_gait_keeps_stance_foot_and_landing_heel_in_a_shoe_friction_co
     assert push_off[0] > 1.0, push_off
     assert stance < 0.35 and heel < 0.35, (stance, heel)
     assert heel_without_brake > 2.0, heel_without_brake
+
+
+def test_shoe_gait_walks_with_a_shoe_friction_at_a_human_step_and_froude_number():
+    """docs/model.md, "The shoe gait": with mu = 0.8 checked at every contact (the
+    stance foot, the landing heel, the impacts; the toe leaves at its cone's edge)
+    a stable gait with a human Froude number (0.1-0.25) and a step near a human's
+    (0.65 L); at mu = 0.7 the same walker still walks."""
+    p, v, _, residual, _ = _gait("shoe")
+    assert float(p["mu"]) == 0.8 and float(p["scuff_tol"]) == 0.0
+    _, res = step_fn(v, p)
+    assert residual < 1e-9 and int(res.status) == Status.OK
+    froude, step = (float(res.length) / float(res.time)) ** 2, float(res.length)
+    assert 0.1 <= froude <= 0.25 and step > 0.6, (froude, step)
+    _, res = step_fn(v, with_params(p, mu=0.7))
+    assert int(res.status) == Status.OK

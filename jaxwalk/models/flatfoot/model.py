@@ -50,6 +50,12 @@ PUSH_OFF_GAIT = (0.276956094048, -0.394675360412)
 SWING_HIP_PARAMS = {**PUSH_OFF_PARAMS, "hip_double_support": 0.5, "heel_brake": 0.01}
 #: Its fixed point ``(psi, psi_dot)``.
 SWING_HIP_GAIT = (0.307231367500, -0.390491088404)
+#: Parameters of the shoe gait: the swing-hip walker with a softer hip spring and
+#: more hip torque, walking with a shoe's friction coefficient (mu = 0.8) checked
+#: at every contact (docs/model.md, "The shoe gait").
+SHOE_PARAMS = {**SWING_HIP_PARAMS, "k_hip": 0.12, "P": 0.045, "mu": 0.8}
+#: Its fixed point ``(psi, psi_dot)``.
+SHOE_GAIT = (0.324519973953, -0.373398980250)
 
 #: Rows that hold at the start of a step (push-off), used to build the section's velocity.
 _SECTION_ROWS = (ph.ANKLE_1_X, ph.ANKLE_1_Y, ph.KNEE_1, ph.KNEE_2, ph.TOE_2)
@@ -164,7 +170,7 @@ class FlatFootWalker(Walker):
         """The documented gait nearest ``params`` in push-off torque, then in the hip's
         share in double support, then in hip-spring stiffness (docs/model.md).
 
-        Four gaits are documented: the nominal one of the defaults (no hip spring;
+        Five gaits are documented: the nominal one of the defaults (no hip spring;
         to 3e-8, its step-map residual 1.3e-8 at the default tolerances, and the
         SciPy walker in tests/reference/flatfoot agrees with the polished point to
         1.6e-8); the hip-spring gait of :data:`HIP_SPRING_PARAMS`, which walks
@@ -172,14 +178,17 @@ class FlatFootWalker(Walker):
         :data:`PUSH_OFF_PARAMS`, which does so at a human Froude number; and the
         swing-hip gait of :data:`SWING_HIP_PARAMS`, whose stance foot and landing
         heel need friction coefficients of 0.28 and 0.24 where the push-off gait's
-        need 1.11 and 3.1.
+        need 1.11 and 3.1; where also ``mu <= 1``, the shoe gait of
+        :data:`SHOE_PARAMS`, which walks with ``mu = 0.8`` at every contact.
         """
         push_off = params["ankle_push"] >= 0.5 * PUSH_OFF_PARAMS["ankle_push"]
         swing_hip = params["hip_double_support"] <= 0.75
+        shoe = swing_hip & (params["mu"] <= 1.0)
         hip_spring = params["k_hip"] >= 0.5 * HIP_SPRING_PARAMS["k_hip"]
+        swing_hip_gait = jnp.where(shoe, jnp.array(SHOE_GAIT), jnp.array(SWING_HIP_GAIT))
         return jnp.where(
             push_off,
-            jnp.where(swing_hip, jnp.array(SWING_HIP_GAIT), jnp.array(PUSH_OFF_GAIT)),
+            jnp.where(swing_hip, swing_hip_gait, jnp.array(PUSH_OFF_GAIT)),
             jnp.where(hip_spring, jnp.array(HIP_SPRING_GAIT), jnp.array(NOMINAL_GAIT)),
         )
 
