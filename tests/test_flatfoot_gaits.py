@@ -1,9 +1,9 @@
 """Issue 14: the documented gaits of the flat-foot walker that walk with no floor
-penetration (docs/model.md, "The hip-spring gait", "The push-off gait" and "The
-swing-hip gait"), each found by Newton from its stored guess, and each step held
-against the SciPy reference walker (tests/reference/flatfoot), which has the hip
-spring, the push-off torque and the hip's share in double support written again
-by hand."""
+penetration (docs/model.md, "The hip-spring gait", "The push-off gait", "The
+swing-hip gait" and "The shoe gait"), each found by Newton from its stored guess,
+and each step held against the SciPy reference walker (tests/reference/flatfoot),
+which has the hip spring, the push-off and heel-brake torques and the hip's share
+in double support written again by hand."""
 
 from __future__ import annotations
 
@@ -94,21 +94,23 @@ def test_documented_step_matches_the_independent_scipy_walker(documented):
 
 
 def _friction_demand(v, p):
-    """``(stance, heel)``: the largest ``|T| / N`` of the stance foot over one step, and
-    of the landing heel in heel pivot, sampled on the SciPy reference walker's step
-    from ``v`` (12 samples per phase, each phase's ends included)."""
+    """``(stance, heel, heel_start, cot_landing)``: the largest ``|T| / N`` of the stance
+    foot over one step and of the landing heel in heel pivot, sampled on the SciPy
+    reference walker's step from ``v`` (12 samples per phase, each phase's ends
+    included); the heel's ``|T| / N`` at the start of heel pivot, and the cotangent
+    of the foot's angle to the ground there."""
     from scipy.integrate import solve_ivp
 
     from tests.reference import flatfoot as ref
     from tests.reference.flatfoot.dynamics import accelerations, vector_field
-    from tests.reference.flatfoot.forces import reactions
+    from tests.reference.flatfoot.forces import _pivot, reactions
     from tests.reference.flatfoot.params import HEEL_PIVOT
     from tests.reference.flatfoot.resets import on_event
     from tests.reference.flatfoot.step import solve_phase
 
     p = {k: float(x) for k, x in p.items()}
     y, phase, ctx = ref.section_to_state(np.asarray(v), p)
-    t, stance, heel = 0.0, 0.0, 0.0
+    t, stance, heel, start = 0.0, 0.0, 0.0, None
     while True:
         status, name, t_ev, y_ev, _ = solve_phase(t, y, p, phase, ctx)
         assert status is None
@@ -119,10 +121,13 @@ def _friction_demand(v, p):
             stance = max(stance, abs(f_stance[0]) / f_stance[1])
             if phase == HEEL_PIVOT:
                 heel = max(heel, abs(f_heel[0]) / f_heel[1])
+                if start is None:
+                    w = _pivot(x[:6], p, ctx, phase)[0]  # heel to ankle, along the foot
+                    start = (abs(f_heel[0]) / f_heel[1], abs(w[0] / w[1]))
         tr = on_event(name, t_ev, y_ev, p, phase, ctx)
         assert tr.status is None
         if tr.done:
-            return stance, heel
+            return stance, heel, *start
         t, y, phase, ctx = t_ev, tr.y, tr.phase, tr.ctx
 
 
@@ -134,11 +139,14 @@ def test_swing_hip_gait_keeps_stance_foot_and_landing_heel_in_a_shoe_friction_co
     foot) to 0.24, both inside a shoe's friction cone (mu about 0.8)."""
     push_off = _friction_demand(_gait("push_off")[1], _gait("push_off")[0])
     p, v = _gait("swing_hip")[:2]
-    stance, heel = _friction_demand(v, p)
-    _, heel_without_brake = _friction_demand(v, with_params(p, heel_brake=0.0))
+    stance, heel, _, _ = _friction_demand(v, p)
+    _, heel_without_brake, at_landing, cot_landing = _friction_demand(v, with_params(p, heel_brake=0.0))
     assert push_off[0] > 1.0, push_off
     assert stance < 0.35 and heel < 0.35, (stance, heel)
     assert heel_without_brake > 2.0, heel_without_brake
+    # Without a torque at the ankle the massless foot is a two-force member at
+    # landing: its ground force lies along it, heel to ankle.
+    assert at_landing == pytest.approx(cot_landing, rel=1e-8)
 
 
 def test_shoe_gait_walks_with_a_shoe_friction_at_a_human_step_and_froude_number():
