@@ -286,6 +286,50 @@ def cmd_plot(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+# ---------------------------------------------------------------- optimum
+
+
+def add_optimum(sub) -> None:
+    p = sub.add_parser(
+        "optimum", help="the best point of every line of a sweep (r* per foot length) and its kind",
+        description=cmd_optimum.__doc__,
+    )
+    p.add_argument("dataset", metavar="DATASET", help="a sweep dataset, DIR/<name>.zarr")
+    p.add_argument("--var", default="lambda_max", metavar="VAR", help="the variable to optimise (default lambda_max)")
+    p.add_argument("--along", default="r", metavar="AXIS", help="the grid axis the lines run along (default r)")
+    p.add_argument("--max", action="store_true", help="the largest value is best (h_max); default: the least")
+    p.add_argument("--csv", default=None, metavar="FILE", help="also write the table as CSV")
+    p.set_defaults(run=cmd_optimum)
+
+
+def cmd_optimum(args: argparse.Namespace) -> int:
+    """Print, for every line of a sweep along one grid axis, its best walking
+    point, the variable there, and whether that optimum is interior (refined by
+    a parabola through the grid points), pressed against the edge of the
+    walking band (with the status beyond it), at the grid's edge, or a plateau."""
+    from jaxwalk.api import open_dataset
+    from jaxwalk.status import describe
+    from jaxwalk.sweep.optimum import KINDS, line_optima
+
+    optima = line_optima(open_dataset(args.dataset), args.var, args.along, "max" if args.max else "min")
+    table = optima.to_dataframe().reset_index()
+    table["optimum_kind"] = [KINDS[k] for k in table["optimum_kind"]]
+    table["beyond_status"] = [describe(int(c)) if c >= 0 else "" for c in table["beyond_status"]]
+    table = table.rename(columns={"star": f"{args.along}*", "value": args.var})
+    print(_markdown(table))
+    if args.csv:
+        table.to_csv(args.csv, index=False)
+        print(f"wrote {args.csv}")
+    return EXIT_OK
+
+
+def _markdown(table) -> str:
+    """A DataFrame as a Markdown table, numbers to 4 significant digits."""
+    cell = lambda v: f"{v:.4g}" if isinstance(v, float) else str(v)
+    rows = [list(table.columns), ["---"] * len(table.columns)] + [[cell(v) for v in row] for row in table.itertuples(index=False)]
+    return "\n".join("| " + " | ".join(row) + " |" for row in rows)
+
+
 # ---------------------------------------------------------------- optimize
 
 
@@ -381,7 +425,9 @@ def _one_line_warning(message, category, filename, lineno, file=None, line=None)
 # ---------------------------------------------------------------- parser
 
 #: The commands, in the order ``--help`` lists them.
-COMMANDS: tuple[Callable, ...] = (add_sweep, add_simulate, add_continue, add_basin, add_plot, add_optimize, add_cache)
+COMMANDS: tuple[Callable, ...] = (
+    add_sweep, add_simulate, add_continue, add_basin, add_plot, add_optimum, add_optimize, add_cache,
+)
 
 
 def build_parser() -> argparse.ArgumentParser:

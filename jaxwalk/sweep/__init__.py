@@ -2,7 +2,8 @@
 
 ``config`` checks and resolves a sweep, ``runner`` runs the analysis over its
 grid, ``dataset`` lays out and writes the results; :mod:`jaxwalk.plot` draws
-them. See ``docs/sweeps.md``.
+them; ``optimum`` finds each line's best point (``jaxwalk optimum``). See
+``docs/sweeps.md``.
 """
 
 from jaxwalk.sweep.config import (
@@ -14,6 +15,7 @@ from jaxwalk.sweep.config import (
     loads_config as loads_config,
     parse_config as parse_config,
 )
+from jaxwalk.sweep.optimum import line_optima as line_optima
 from jaxwalk.sweep.runner import check_results as check_results, run_sweep as run_sweep
 
 # jaxwalk.sweep(config, out=None, ...) runs it from a notebook (jaxwalk.api.sweep).
