@@ -20,7 +20,7 @@ from typing import NamedTuple
 import diffrax
 import jax
 import jax.numpy as jnp
-from jaxtyping import Array, ArrayLike, Float, Int32
+from jaxtyping import Array, ArrayLike, Bool, Float, Int32
 
 from jaxwalk.flatstep import run_step_flat
 from jaxwalk.rootfind import BracketedNewton
@@ -97,6 +97,32 @@ def _solve_phase(model: Walker, params, y, phase, ctx, t0, g0, opts: SolverOptio
     return (sol.ts[-1], sol.ys[-1], sol.result), jnp.asarray(sol.stats["num_steps"], jnp.int32)
 
 
+def event_at_start(g0: Float[Array, "n_guards"], opts: SolverOptions) -> Bool[Array, ""]:
+    """Whether a phase ends where it starts: a guard is already negative.
+
+    Such a guard never "crosses" zero, and while it is the smallest it hides
+    every other guard: the phase ends at its start (a swing foot landing behind
+    the hip after a large drop, a knee that must already pull, a stance foot
+    outside its friction cone in the step's first phase). The margin keeps a
+    guard that ended the previous phase (zero to root-finding accuracy) quiet;
+    the solve watches it lifted by :func:`guard_offsets`, so it hides no other guard.
+    """
+    return jnp.min(g0) < -opts.start_guard_margin
+
+
+def _solve_unless_ended(model: Walker, params, y, phase, ctx, t0, g0, opts: SolverOptions):
+    """:func:`_solve_phase`, skipped where the phase ends at its start.
+
+    The skipped solve would run to the solver's step limit in vain (no guard
+    can cross while a negative one is the smallest): 2048 Dopri8 steps, about
+    4 s on the flat-foot walker, at every grid point whose first phase starts
+    outside a friction cone. Under ``vmap`` with a batched condition both
+    branches run, as before."""
+    skipped = lambda: ((t0, y, diffrax.RESULTS.event_occurred), jnp.zeros((), jnp.int32))
+    solved = lambda: _solve_phase(model, params, y, phase, ctx, t0, g0, opts)
+    return jax.lax.cond(event_at_start(g0, opts), skipped, solved)
+
+
 def end_phase(model: Walker, params, t0, y0, phase, ctx, g0, solved, n_events, opts: SolverOptions) -> PhaseEnd:
     """The event that ended a phase started at ``(t0, y0, phase, ctx)``, the model's
     reset and the status rules: the body of :func:`run_step`'s loop after the solve,
@@ -109,13 +135,7 @@ def end_phase(model: Walker, params, t0, y0, phase, ctx, g0, solved, n_events, o
         n_events: events in the step before this one.
     """
     t_event, y_event, result = solved
-    # A guard already negative when a phase starts never "crosses" zero, and
-    # while it is the smallest it hides every other guard: treat it as an
-    # event at the phase's start (a swing foot landing behind the hip after a
-    # large drop, a knee that must already pull). The margin keeps a guard
-    # that ended the previous phase (zero to root-finding accuracy) quiet; the
-    # solve watched it lifted by guard_offsets, so it hid no other guard.
-    at_start = jnp.min(g0) < -opts.start_guard_margin
+    at_start = event_at_start(g0, opts)
     t_event = jnp.where(at_start, t0, t_event)
     y_event = jnp.where(at_start, y0, y_event)
     result = diffrax.RESULTS.where(at_start, diffrax.RESULTS.event_occurred, result)
@@ -162,7 +182,7 @@ def run_step(model: Walker, params: Params, y0: Float[Array, "2*n_q"], phase0: I
 
     def body(c: _PhaseLoop) -> _PhaseLoop:
         g0 = start_guards(model, params, c.t, c.y, c.phase, c.ctx)
-        solved, ode_steps = _solve_phase(model, params, c.y, c.phase, c.ctx, c.t, g0, opts)
+        solved, ode_steps = _solve_unless_ended(model, params, c.y, c.phase, c.ctx, c.t, g0, opts)
         end = end_phase(model, params, c.t, c.y, c.phase, c.ctx, g0, solved, c.n_events, opts)
         # Work over the phase, from its start to the event (before the reset,
         # which may relabel the legs); impacts do not move the joints.

@@ -348,9 +348,14 @@ def test_resolved_config_is_itself_a_valid_config():
 
 # sweeps/simulate_*.toml are `jaxwalk simulate` configs (tests/test_simulate.py),
 # sweeps/continue_*.toml `jaxwalk continue` configs (tests/test_continue_config.py),
-# sweeps/basin_*.toml `jaxwalk basin` configs (tests/test_basin.py).
+# sweeps/basin_*.toml `jaxwalk basin` configs (tests/test_basin.py); sweeps/human_bands/
+# holds sweeps too.
 @pytest.mark.parametrize(
-    "path", [p for p in sorted((ROOT / "sweeps").glob("*.toml")) if not p.name.startswith(("simulate_", "continue_", "basin_"))],
+    "path",
+    [
+        p for p in sorted([*(ROOT / "sweeps").glob("*.toml"), *(ROOT / "sweeps" / "human_bands").glob("*.toml")])
+        if not p.name.startswith(("simulate_", "continue_", "basin_"))
+    ],
     ids=lambda p: p.name,
 )
 def test_bundled_configs_are_valid(path):

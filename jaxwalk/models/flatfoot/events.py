@@ -37,9 +37,9 @@ and the latch closes as the ankle passes (a ``knee_strike`` with no impulse).
 After every transition the new phase is checked on entry: a toe that would pull
 on the ground leaves at once, a released knee whose stop would pull flexes at
 once (both logged as events), and a failure guard already non-positive sets its
-status. (The engine also treats a guard that is negative when a phase starts as
-an event at the start, but only after integrating the phase in vain; resolving
-these here saves that integration and keeps the event log complete.)
+status. (The engine also ends a phase at its start, without integrating it,
+where a guard is negative there (``jaxwalk.step.event_at_start``); resolving
+these here names the transition and keeps the event log complete.)
 """
 
 from __future__ import annotations
