@@ -111,16 +111,19 @@ def event_at_start(g0: Float[Array, "n_guards"], opts: SolverOptions) -> Bool[Ar
 
 
 def _solve_unless_ended(model: Walker, params, y, phase, ctx, t0, g0, opts: SolverOptions):
-    """:func:`_solve_phase`, skipped where the phase ends at its start.
+    """:func:`_solve_phase`, skipped where the phase ends at its start or its
+    state is not finite (:func:`close_phase` then says ``NONFINITE``).
 
-    The skipped solve would run to the solver's step limit in vain (no guard
-    can cross while a negative one is the smallest): 2048 Dopri8 steps, about
-    4 s on the flat-foot walker, at every grid point whose first phase starts
-    outside a friction cone. Under ``vmap`` with a batched condition both
-    branches run, as before."""
+    Either solve would run to the solver's step limit in vain (no guard can
+    cross while a negative one is the smallest; a NaN state's error estimate
+    rejects every step): 2048 Dopri8 steps, 2-4 s on the flat-foot walker, at
+    every grid point whose first phase starts outside a friction cone and, in
+    the analyses that walk from each gait (``min_clearance``, ``h_max``, ...),
+    at every point without a gait (its fixed point is NaN). Under ``vmap``
+    with a batched condition both branches run, as before."""
     skipped = lambda: ((t0, y, diffrax.RESULTS.event_occurred), jnp.zeros((), jnp.int32))
     solved = lambda: _solve_phase(model, params, y, phase, ctx, t0, g0, opts)
-    return jax.lax.cond(event_at_start(g0, opts), skipped, solved)
+    return jax.lax.cond(event_at_start(g0, opts) | ~jnp.all(jnp.isfinite(y)), skipped, solved)
 
 
 def end_phase(model: Walker, params, t0, y0, phase, ctx, g0, solved, n_events, opts: SolverOptions) -> PhaseEnd:
