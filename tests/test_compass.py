@@ -45,3 +45,26 @@ def test_units_scale_out(engine_gaits):
     expect = base * np.array([1.0, 1 / np.sqrt(9.81), 1 / np.sqrt(9.81)])
     np.testing.assert_allclose(scaled["fixed_point"][0], expect, atol=1e-8)
     np.testing.assert_allclose(scaled["lambda_max"][0], engine_gaits[0]["lambda_max"][0], atol=1e-6)
+
+
+def test_a_phase_that_ends_at_its_start_is_not_integrated():
+    """A guard already negative when the step starts (the stance leg rotating
+    backward: ``stall``), or a state that is not finite, ends the step at once
+    with its status and without a solver step; the phase's solve would run to the
+    solver's step limit in vain (docs/engine.md, Known limits)."""
+    import jax
+    import jax.numpy as jnp
+
+    from jaxwalk.status import Status
+    from jaxwalk.step import step_map
+
+    params = MODEL.default_params()
+    step = jax.jit(lambda v: step_map(MODEL, v, params)[1])
+    backward = step(jnp.array([0.2, 0.5, -0.3]))  # alpha_1 dot > 0: stall = -alpha_1 dot < 0
+    assert int(backward.status) == Status.STALLED
+    assert int(backward.n_events) == 1 and int(backward.ode_steps) == 0 and float(backward.time) == 0.0
+    nonfinite = step(jnp.array([jnp.nan, -1.0, 0.3]))
+    assert int(nonfinite.status) == Status.NONFINITE
+    assert int(nonfinite.ode_steps) == 0
+    walking = step(jnp.array([0.2, -1.0, -0.3]))  # the same program, solving as usual
+    assert int(walking.ode_steps) > 0
