@@ -43,11 +43,12 @@ def start_guards(model: Walker, params, t0, y0, phase, ctx) -> Float[Array, "n_g
 
 
 def solve_phase(model: Walker, params, y, phase, ctx, t0, g0: Float[Array, "n_guards"], opts: SolverOptions,
-                dense: bool = False):
+                dense: bool = False, empty: Bool[ArrayLike, ""] = False):
     """Integrate ``phase`` from ``t0`` until an event or the time limit.
 
     Args:
         g0: ``(n_guards,)`` guard values at ``(t0, y)`` (:func:`start_guards`).
+        empty: solve over the empty interval ``[t0, t0]`` instead (no solver step).
 
     Returns the diffrax ``Solution`` (saved at its end; with ``dense=True`` also
     its interpolation, which the recorder of ``jaxwalk simulate`` samples).
@@ -63,7 +64,7 @@ def solve_phase(model: Walker, params, y, phase, ctx, t0, g0: Float[Array, "n_gu
         root_finder=BracketedNewton(rtol=opts.event_tol, atol=opts.event_tol),
         direction=False,
     )
-    t1 = t0 + opts.phase_time_limit * model.time_scale(params)
+    t1 = jnp.where(empty, t0, t0 + opts.phase_time_limit * model.time_scale(params))
     sol = diffrax.diffeqsolve(
         term,
         opts.make_solver(),
@@ -90,10 +91,10 @@ def solve_phase(model: Walker, params, y, phase, ctx, t0, g0: Float[Array, "n_gu
 # second-order sensitivity program fell from 66 to 40 s; the compiled program
 # and every number are unchanged (benchmarks/bench_jit_boundaries.py).
 @functools.partial(jax.jit, static_argnums=(0, 7))
-def _solve_phase(model: Walker, params, y, phase, ctx, t0, g0, opts: SolverOptions):
+def _solve_phase(model: Walker, params, y, phase, ctx, t0, g0, opts: SolverOptions, empty=False):
     """End time, end state and diffrax result of :func:`solve_phase`, and its
     solver steps (accepted and rejected)."""
-    sol = solve_phase(model, params, y, phase, ctx, t0, g0, opts)
+    sol = solve_phase(model, params, y, phase, ctx, t0, g0, opts, empty=empty)
     return (sol.ts[-1], sol.ys[-1], sol.result), jnp.asarray(sol.stats["num_steps"], jnp.int32)
 
 
@@ -111,19 +112,19 @@ def event_at_start(g0: Float[Array, "n_guards"], opts: SolverOptions) -> Bool[Ar
 
 
 def _solve_unless_ended(model: Walker, params, y, phase, ctx, t0, g0, opts: SolverOptions):
-    """:func:`_solve_phase`, skipped where the phase ends at its start or its
-    state is not finite (:func:`close_phase` then says ``NONFINITE``).
+    """:func:`_solve_phase` over an empty interval where the phase ends at its
+    start or its state is not finite (:func:`close_phase` then says ``NONFINITE``).
 
-    Either solve would run to the solver's step limit in vain (no guard can
-    cross while a negative one is the smallest; a NaN state's error estimate
+    A full solve there would run to the solver's step limit in vain (no guard
+    can cross while a negative one is the smallest; a NaN state's error estimate
     rejects every step): 2048 Dopri8 steps, 2-4 s on the flat-foot walker, at
     every grid point whose first phase starts outside a friction cone and, in
     the analyses that walk from each gait (``min_clearance``, ``h_max``, ...),
-    at every point without a gait (its fixed point is NaN). Under ``vmap``
-    with a batched condition both branches run, as before."""
-    skipped = lambda: ((t0, y, diffrax.RESULTS.event_occurred), jnp.zeros((), jnp.int32))
-    solved = lambda: _solve_phase(model, params, y, phase, ctx, t0, g0, opts)
-    return jax.lax.cond(event_at_start(g0, opts) | ~jnp.all(jnp.isfinite(y)), skipped, solved)
+    at every point without a gait (its fixed point is NaN). An empty interval
+    (``t1 = t0``) takes no solver step, also in a vmapped batch, where a
+    ``lax.cond`` on a batched condition would run the full solve anyway."""
+    ends = event_at_start(g0, opts) | ~jnp.all(jnp.isfinite(y))
+    return _solve_phase(model, params, y, phase, ctx, t0, g0, opts, ends)
 
 
 def end_phase(model: Walker, params, t0, y0, phase, ctx, g0, solved, n_events, opts: SolverOptions) -> PhaseEnd:

@@ -68,3 +68,8 @@ def test_a_phase_that_ends_at_its_start_is_not_integrated():
     assert int(nonfinite.ode_steps) == 0
     walking = step(jnp.array([0.2, -1.0, -0.3]))  # the same program, solving as usual
     assert int(walking.ode_steps) > 0
+    # In a vmapped batch too, where the lanes share one solver loop.
+    starts = jnp.array([[0.2, 0.5, -0.3], [jnp.nan, -1.0, 0.3], [0.2, -1.0, -0.3]])
+    batch = jax.jit(jax.vmap(lambda v: step_map(MODEL, v, params)[1]))(starts)
+    assert [int(s) for s in batch.status[:2]] == [Status.STALLED, Status.NONFINITE]
+    assert [int(n) for n in batch.ode_steps] == [0, 0, int(walking.ode_steps)]
