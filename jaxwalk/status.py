@@ -35,6 +35,7 @@ class Status(enum.IntEnum):
     CYCLE_NOT_FOUND = 16
     NOT_RETURNED = 17
     UNSTABLE_GAIT = 18
+    FOOT_ROLLING = 19
     IN_PROGRESS = 127  # internal: a step still running; never written to a dataset
 
 
@@ -65,6 +66,9 @@ STATUS_MEANINGS: dict[Status, str] = {
         "but never came within tol of the gait's cycle (a slower return, another attractor, or none)"
     ),
     Status.UNSTABLE_GAIT: "the period-1 gait is unstable and no attractor of it is known: no basin to measure",
+    Status.FOOT_ROLLING: (
+        "foot rolling: the flat stance foot's centre of pressure left the foot (it would tip onto its heel or toe)"
+    ),
     Status.IN_PROGRESS: "internal: step in progress",
 }
 

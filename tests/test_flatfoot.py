@@ -406,6 +406,25 @@ def test_a_low_friction_coefficient_slips(params, step_fn, fixed_point):
     assert int(res.status) == Status.SLIPPING
 
 
+def test_a_stiff_ankle_rolls_the_flat_stance_foot_at_its_located_toe_edge(params, step_fn):
+    """A flat foot holds its ankle spring's torque only while the centre of
+    pressure lies between heel and toe. The hip-spring walker with an ankle
+    spring of 0.2 (about half a human's) pushes the trailing flat foot's centre
+    of pressure to its toe in heel pivot, before the leading foot is flat: the
+    step ends ``FOOT_ROLLING`` on the ``foot_roll`` event, located where the
+    centre of pressure is at the toe (measured 2e-15 from ``a_t``)."""
+    p = _with(params, **{**HIP_SPRING_PARAMS, "k": 0.2})
+    _, res = step_fn(MODEL.initial_guess(p), p)
+    names = [ev.GUARD_NAMES[c] for c in ph.decode_history(np.asarray(res.ctx))]
+    assert int(res.status) == Status.FOOT_ROLLING and int(res.phase) == ph.HEEL_PIVOT
+    assert names == ["unlock", "knee_flex", "toe_off", "knee_strike", "heel_strike", "foot_roll"]
+    stance, cop, _, _ = _reactions(res.y, p, int(res.phase), res.ctx)
+    assert float(stance[1]) > 0.1 and abs(float(cop) - float(geo.foot_arms(p)[1])) < 1e-9
+    # The documented hip-spring gait itself (k = 0.03) keeps its centre of pressure inside.
+    p = _with(params, **HIP_SPRING_PARAMS)
+    assert int(step_fn(MODEL.initial_guess(p), p)[1].status) == Status.OK
+
+
 def test_the_stance_knee_is_a_latch_and_buckles_on_its_stop_alone(params, step_fn, fixed_point, walk):
     # The stance knee's constraint pulls (holds the knee against flexing) all step:
     # a latch, stated as stance_latch = 1. On its extension stop alone it buckles.

@@ -33,6 +33,7 @@ STATUS_COLORS: dict[int, str] = {
     Status.SLIPPING: "#17becf",
     Status.NOT_RETURNED: "#bcbd22",  # olive: walking, but not back on the gait
     Status.UNSTABLE_GAIT: "#9e7b5a",
+    Status.FOOT_ROLLING: "#b5651d",
 }
 #: Fallback for a code this version does not know.
 UNKNOWN_COLOR = "#5c3c00"
@@ -55,6 +56,7 @@ STATUS_MARKERS: dict[int, str] = {
     Status.SLIPPING: "d",
     Status.NOT_RETURNED: "1",
     Status.UNSTABLE_GAIT: "2",
+    Status.FOOT_ROLLING: "X",
 }
 
 

@@ -27,6 +27,9 @@ The swing knee has an extension stop at flexion ``knee_lock`` and a latch
 * ``slip`` / ``knee_buckle`` (a ground force leaves its friction cone; a knee
   on its stop alone, ``stance_latch = 0``, would have to pull): ``SLIPPING``,
   ``KNEE_BUCKLED``.
+* ``foot_roll`` (the flat stance foot's centre of pressure reaches its heel or
+  toe: a rigid flat foot can hold no larger ankle torque without tipping, and
+  the phase sequence has no heel rise before toe-strike): ``FOOT_ROLLING``.
 * ``heel_extremum`` / ``toe_extremum``: bookkeeping of the swing foot's minimum
   clearance (:mod:`clearance`); no phase change.
 
@@ -54,7 +57,7 @@ from jaxwalk.status import Status
 from jaxwalk.walker import Transition
 
 (UNLOCK, KNEE_FLEX, TOE_OFF, KNEE_STRIKE, HEEL_STRIKE, TOE_STRIKE,
- FALL, LEG_RANGE, STALL, RUNNING, SCUFF, SLIP, BUCKLE, HEEL_EXTREMUM, TOE_EXTREMUM) = range(15)  # fmt: skip
+ FALL, LEG_RANGE, STALL, RUNNING, SCUFF, SLIP, BUCKLE, FOOT_ROLL, HEEL_EXTREMUM, TOE_EXTREMUM) = range(16)  # fmt: skip
 GUARD_NAMES = (
     "unlock",
     "knee_flex",
@@ -69,6 +72,7 @@ GUARD_NAMES = (
     "scuff",
     "slip",
     "knee_buckle",
+    "foot_roll",
     "heel_extremum",
     "toe_extremum",
 )
@@ -81,6 +85,7 @@ FAILURES = {
     SCUFF: Status.SCUFFING,
     SLIP: Status.SLIPPING,
     BUCKLE: Status.KNEE_BUCKLED,
+    FOOT_ROLL: Status.FOOT_ROLLING,
 }
 
 #: Hip height (normal to the slope, leg lengths) below which the walker has fallen.
@@ -113,12 +118,12 @@ def _cone(force, params):
 
 
 def guard_values(model, t, y, params, phase, ctx):
-    """``(15,)`` guard values in the order of :data:`GUARD_NAMES`."""
+    """``(16,)`` guard values in the order of :data:`GUARD_NAMES`."""
     q, qd = model.split(y)
     _, lam = model.dynamics(y, params, phase, ctx)
     stance, _, toe, heel = forces.contact_reactions(q, lam, params, phase, ctx)
     gn, knee_state = ctx[ph.C["ground_next"]], ctx[ph.C["knee_2"]]
-    _, a_t = geo.foot_arms(params)
+    a_h, a_t = geo.foot_arms(params)
     one = jnp.ones_like(t)
 
     on_stop = _STOP_PHASES[phase]
@@ -158,11 +163,17 @@ def guard_values(model, t, y, params, phase, ctx):
     no_latch = params["stance_latch"] < 0.5
     loaded_2 = jnp.where(phase == ph.HEEL_PIVOT, lam[ph.KNEE_2], one)
     buckle = jnp.where(no_latch, jnp.minimum(lam[ph.KNEE_1], loaded_2), one)
+    # The flat stance foot holds its ankle spring's torque by where its normal
+    # force acts; it stays flat only while that centre of pressure lies between
+    # heel and toe, -a_h N <= tau <= a_t N (moment form: no division by N, whose
+    # sign the `running` guard checks).
+    tau = forces.stance_ankle_torque(q, params)
+    foot_roll = jnp.minimum(a_t * stance[1] - tau, tau + a_h * stance[1])
     extrema = clearance.guards(q, qd, params, phase, ctx, _ground_under)
     return jnp.concatenate(
         [
             jnp.stack([unlock, knee_flex, toe_off, knee, heel_strike, toe_strike, fall, leg_range, stall, running]),
-            jnp.stack([scuff, slip, buckle]),
+            jnp.stack([scuff, slip, buckle, foot_roll]),
             extrema,
         ]
     )
@@ -306,8 +317,8 @@ def _event_status(guard, q, qd, params, ctx, pulls, slides):
     status = jnp.where((status == Status.IN_PROGRESS) & pulls, jnp.int8(Status.RUNNING), status)
     status = jnp.where((status == Status.IN_PROGRESS) & slides, jnp.int8(Status.SLIPPING), status)
     status = jnp.select(
-        [status != Status.IN_PROGRESS, is_(SLIP), is_(BUCKLE)],
-        [status, jnp.int8(Status.SLIPPING), jnp.int8(Status.KNEE_BUCKLED)],
+        [status != Status.IN_PROGRESS, is_(SLIP), is_(BUCKLE), is_(FOOT_ROLL)],
+        [status, jnp.int8(Status.SLIPPING), jnp.int8(Status.KNEE_BUCKLED), jnp.int8(Status.FOOT_ROLLING)],
         status,
     )
     return status

@@ -174,6 +174,17 @@ def _pivot_reaction(multiplier, ankle_2, shank_2, params, ctx, anchor, spring):
     return multiplier * radial + across
 
 
+def stance_ankle_torque(q, params):
+    """Moment about the stance ankle that foot 1's normal force must supply
+    (scalar, ``M g L``; forward positive): ``N * cop``.
+
+    Moment balance of the flat massless foot: the ankle spring's torque on it,
+    ``k (shank_1 - 0)``, is held by the normal force acting at the centre of
+    pressure, so ``N cop = -k shank_1``.
+    """
+    return -params["k"] * q[geo.SHANK_1]
+
+
 def contact_reactions(q, lam, params, phase, ctx):
     """Ground reactions (slope frame; y is the normal force, positive pushing up).
 
@@ -188,9 +199,7 @@ def contact_reactions(q, lam, params, phase, ctx):
         heel of foot 2 ``(2,)`` each, zero when not in contact.
     """
     stance = jnp.stack([lam[ph.ANKLE_1_X], lam[ph.ANKLE_1_Y]])
-    # Moment balance of the flat massless foot about its ankle: the spring's
-    # torque on the foot, k (shank_1 - 0), is held by the normal force at the CoP.
-    cop = -params["k"] * q[geo.SHANK_1] / stance[1]
+    cop = stance_ankle_torque(q, params) / stance[1]
     ankle_2, shank_2 = geo.ankle(q, params, 2), q[geo.SHANK_2]
     _, toe_2, heel_2, _ = ph.anchors(params, ctx)
     toe = _pivot_reaction(lam[ph.TOE_2], ankle_2, shank_2, params, ctx, toe_2, _toe_load)
