@@ -92,6 +92,7 @@ class Walker:
         context: names of the entries of ``ctx``.
         section_names: names of the independent section coordinates ``v``.
         n_constraints: number of constraint rows (active or not).
+        limits: names of the contact limits :meth:`limit_use` measures (none by default).
         ground_next: index in ``ctx`` of the ground height at the next touchdown
             (the step-down capability), or ``None``.
         lockstep_batch: configurations one worker thread runs together in a grid analysis.
@@ -111,6 +112,7 @@ class Walker:
     context: tuple[str, ...] = ()
     section_names: tuple[str, ...] = ()
     n_constraints: int = 0
+    limits: tuple[str, ...] = ()
     #: Units of lengths and times in outputs (period, step length, speed).
     units: dict = {"length": "1", "time": "1"}
     #: Configurations (or continuation lines) one worker thread advances together,
@@ -215,6 +217,14 @@ class Walker:
         ``phase`` (its discrete state ``ctx``, which a phase does not change; scalar,
         model energy units). Default none: a passive walker."""
         return jnp.zeros((), y_start.dtype)
+
+    def limit_use(self, y: Float[Array, "2*n_q"], params: Params, phase: Int32[ArrayLike, ""], ctx: Float[Array, "n_ctx"]) -> Float[Array, "n_limits"]:
+        """*contact limits* how much of each limit in :attr:`limits` the state uses,
+        ``(len(limits),)``: 0 unloaded, 1 at the limit's edge (where its failure
+        guard crosses zero), above 1 beyond it; NaN where the limit does not apply
+        in ``phase``. The recorder of ``jaxwalk simulate`` samples it, which says
+        which limit a walk approaches, when, and by how much. Default none."""
+        return jnp.zeros((0,), y.dtype)
 
     @property
     def actuated(self) -> bool:

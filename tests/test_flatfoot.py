@@ -286,6 +286,25 @@ def test_stance_normal_forces_are_compressive(params, walk):
             assert -float(a_h) < float(cop) < float(a_t)  # inside the flat stance foot
 
 
+def test_limit_use_is_the_reactions_measured_against_their_limits(params, walk):
+    """The recorded ``limit_use`` is each contact force measured against its
+    limit, recomputed here from the reactions: the stance foot's and landing
+    heel's ``|T| / (mu N)`` and the centre of pressure over the toe and heel arms.
+    The nominal gait stays inside all of them."""
+    a_h, a_t = (float(x) for x in geo.foot_arms(params))
+    assert MODEL.limits == ("stance_friction", "heel_friction", "cop_toe", "cop_heel")
+    assert walk.limit_use.shape == (len(walk.time), 4)
+    for y, phase, ctx, use in zip(walk.y, walk.phase, walk.ctx, walk.limit_use):
+        stance, cop, _, heel = (np.asarray(x) for x in _reactions(y, params, int(phase), ctx))
+        mu = float(params["mu"])
+        expected = [abs(stance[0]) / (mu * stance[1]), np.nan, cop / a_t, -cop / a_h]
+        if phase == ph.HEEL_PIVOT:
+            expected[1] = abs(heel[0]) / (mu * heel[1])
+        np.testing.assert_allclose(use, expected, rtol=1e-9, atol=1e-15)
+        assert np.nanmax(use) < 1.0
+    assert np.isfinite(walk.limit_use[walk.phase == ph.HEEL_PIVOT, 1]).all()
+
+
 def test_contact_impulses_are_compressive(params, walk):
     masks = {
         ev.KNEE_STRIKE: ph.PHASE_MASKS[ph.LOCKED_SWING],
@@ -420,6 +439,11 @@ def test_a_stiff_ankle_rolls_the_flat_stance_foot_at_its_located_toe_edge(params
     assert names == ["unlock", "knee_flex", "toe_off", "knee_strike", "heel_strike", "foot_roll"]
     stance, cop, _, _ = _reactions(res.y, p, int(res.phase), res.ctx)
     assert float(stance[1]) > 0.1 and abs(float(cop) - float(geo.foot_arms(p)[1])) < 1e-9
+    # Recorded, the walk's contact limits say which edge: the toe, at 1.
+    walk = record_walk(MODEL, p, *MODEL.section_to_state(MODEL.initial_guess(p), p), n_steps=1, dt=0.05)
+    use = dict(zip(MODEL.limits, walk.limit_use[-1]))
+    assert walk.status == Status.FOOT_ROLLING and abs(use["cop_toe"] - 1.0) < 1e-9
+    assert use["cop_heel"] < 0.0 and use["stance_friction"] < 1.0
     # The documented hip-spring gait itself (k = 0.03) keeps its centre of pressure inside.
     p = _with(params, **HIP_SPRING_PARAMS)
     assert int(step_fn(MODEL.initial_guess(p), p)[1].status) == Status.OK

@@ -155,6 +155,8 @@ def test_dataset_layout(walk):
     force = ds["contact_force"].values
     assert np.all(np.isfinite(force[:, :2])) and np.all(np.isnan(force[:, 2:]))  # swing foot rows inactive
     assert np.all(force[:, 1] > 0)  # the ground pushes up on the stance foot
+    # The compass walker checks no contact limit: an empty limit axis, no column.
+    assert ds["limit_use"].dims == ("time", "limit") and ds["limit_use"].shape == (n, 0)
     assert ds["phase"].attrs["flag_meanings"] == " ".join(MODEL.phases)
     assert ds["phase"].attrs["flag_values"] == [0, 1]
     for key, value in flag_attributes().items():

@@ -80,6 +80,7 @@ def _coordinates(model: Walker, traj: Trajectory, time_u: str) -> dict[str, tupl
         "q_units": ("coordinate", np.array(q_units, dtype=object), {"long_name": "units of q"}),
         "qd_units": ("coordinate", np.array(qd_units, dtype=object), {"long_name": "units of qd"}),
         "constraint": ("constraint", np.arange(model.n_constraints), {"long_name": "constraint row of the model (model.constraints)"}),
+        "limit": ("limit", np.array(model.limits, dtype=object), {"long_name": "contact limits the model checks (model.limits; none for most models)"}),
         "context": ("context", np.array(model.context, dtype=object), {"long_name": "entries of the discrete state ctx"}),
         "xy": ("xy", np.array(["x", "y"], dtype=object), {"long_name": "slope frame axes: x along the slope (downhill), y normal to it"}),
         "step_number": ("step_number", np.arange(len(traj.step_status)), {"long_name": "step index, from 0"}),
@@ -115,6 +116,11 @@ def _variables(model: Walker, traj: Trajectory, length_u: str, time_u: str) -> d
             "long_name": "constraint forces: the KKT multipliers lambda of model.dynamics (NaN where the constraint is inactive)",
             "units": force_u,
             "comment": "a force for a position constraint (foot x, y; positive y: the ground pushes up), a torque for an angle constraint (a knee lock); impulses at impacts are not included",
+        }),
+        "limit_use": (("time", "limit"), traj.limit_use, {
+            "long_name": "use of each contact limit: 0 unloaded, 1 at its edge (where its failure guard crosses zero), above 1 beyond it (model.limit_use)",
+            "units": "1",
+            "comment": "NaN where the limit does not apply in the phase; inf where the contact's normal force does not push. The largest value over a walk says which limit a failing or nearly failing walk meets, and when",
         }),
         "ctx": (("time", "context"), traj.ctx, {"long_name": "discrete state (contact anchors, ground level of the next touchdown), in the frame of the current step"}),
         "frame_origin": (("time", "xy"), traj.origin, {

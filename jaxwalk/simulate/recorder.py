@@ -37,8 +37,9 @@ class Trajectory:
     the guard that fired at an event sample (-1 elsewhere), ``y`` (n, 2 n_q),
     ``ctx`` (n, n_ctx), ``origin`` (n, 2) the step frame's origin in the first
     step's frame, ``contact_force`` (n, n_c) (NaN where a constraint is
-    inactive), ``energy`` (n,) in the first step's frame, ``actuator_power`` and
-    ``work`` (n,).
+    inactive), ``limit_use`` (n, n_limits) :meth:`~jaxwalk.walker.Walker.limit_use`
+    (1 at a contact limit's edge), ``energy`` (n,) in the first step's frame,
+    ``actuator_power`` and ``work`` (n,).
 
     Per step: ``step_status``, ``step_start_time``, ``step_duration``,
     ``step_length`` (k,), ``section_start``, ``section_end`` (k, n_v; NaN for a
@@ -55,6 +56,7 @@ class Trajectory:
     ctx: np.ndarray
     origin: np.ndarray
     contact_force: np.ndarray
+    limit_use: np.ndarray
     energy: np.ndarray
     actuator_power: np.ndarray
     work: np.ndarray
@@ -69,18 +71,20 @@ class Trajectory:
 
 
 def _observe(model: Walker, params, y, phase, ctx):
-    """Contact forces (NaN where inactive), energy in the step's frame, actuator power."""
+    """Contact forces (NaN where inactive), use of the contact limits, energy in
+    the step's frame, actuator power."""
     import jax.numpy as jnp
 
     _, lam = model.dynamics(y, params, phase, ctx)
     lam = jnp.where(model.constraint_mask(phase, params) > 0, lam, jnp.nan)
+    limits = model.limit_use(y, params, phase, ctx)
     energy = model.energy(y, params, phase, ctx)
     if model.actuated:
         q, qd = model.split(y)
         power = jnp.asarray(model.actuator_power(q, qd, params, phase, ctx), y.dtype)
     else:
         power = jnp.zeros((), y.dtype)
-    return lam, energy, power
+    return lam, limits, energy, power
 
 
 @functools.lru_cache(maxsize=None)
@@ -98,8 +102,8 @@ def _compiled(model: Walker, opts):
 
     def sample(interp, ts, params, phase, ctx):
         ys = jax.vmap(interp.evaluate)(ts)
-        lam, energy, power = jax.vmap(lambda y: _observe(model, params, y, phase, ctx))(ys)
-        return ys, lam, energy, power
+        lam, limits, energy, power = jax.vmap(lambda y: _observe(model, params, y, phase, ctx))(ys)
+        return ys, (lam, limits), energy, power
 
     def observe(params, ys, phases, ctxs):
         return jax.vmap(lambda y, p, c: _observe(model, params, y, p, c))(ys, phases, ctxs)
@@ -140,8 +144,8 @@ def record_walk(model: Walker, params, y0, phase0, ctx0, n_steps: int, dt: float
     samples = _Samples(weight=masses.sum() * np.asarray(model.gravity(params)))  # total weight in the slope frame
     st = _Walk(y=jnp.asarray(y0), phase=jnp.asarray(phase0, jnp.int32), ctx=jnp.asarray(ctx0), origin=np.zeros(2))
     # (A batch of two, the shape every event uses: one compilation.)
-    lam, energy, power = observe(params, jnp.stack([st.y, st.y]), jnp.stack([st.phase, st.phase]), jnp.stack([st.ctx, st.ctx]))
-    samples.add(0.0, 0, int(st.phase), REGULAR, -1, st.y[None], st.ctx, st.origin, lam[:1], energy[:1], power[:1], st.work)
+    lam, limits, energy, power = observe(params, jnp.stack([st.y, st.y]), jnp.stack([st.phase, st.phase]), jnp.stack([st.ctx, st.ctx]))
+    samples.add(0.0, 0, int(st.phase), REGULAR, -1, st.y[None], st.ctx, st.origin, (lam[:1], limits[:1]), energy[:1], power[:1], st.work)
 
     steps: dict[str, list] = {k: [] for k in ("status", "start", "duration", "length", "section_start", "section_end")}
     status = int(Status.OK)
@@ -165,7 +169,7 @@ def record_walk(model: Walker, params, y0, phase0, ctx0, n_steps: int, dt: float
 
 
 #: Per-sample columns of a recording, in :class:`_Samples`.
-_COLUMNS = ("time", "step", "phase", "kind", "guard", "y", "ctx", "origin", "lam", "energy", "power", "work")
+_COLUMNS = ("time", "step", "phase", "kind", "guard", "y", "ctx", "origin", "lam", "limits", "energy", "power", "work")
 
 
 class _Samples:
@@ -175,7 +179,8 @@ class _Samples:
         self.weight = weight  # (2,) total weight vector in the slope frame
         self.rows: dict[str, list] = {k: [] for k in _COLUMNS}
 
-    def add(self, time, step, phase, kind, guard, ys, ctx, origin, lam, energy, power, work) -> None:
+    def add(self, time, step, phase, kind, guard, ys, ctx, origin, forces, energy, power, work) -> None:
+        """Append ``len(ys)`` samples; ``forces`` is ``(contact_force, limit_use)``."""
         rows = self.rows
         n = len(ys)
         if n == 0:  # a phase with no grid point inside (shorter than dt, or an event at its start)
@@ -188,7 +193,9 @@ class _Samples:
         rows["y"].append(np.asarray(ys).reshape(n, -1))
         rows["ctx"].append(np.tile(np.asarray(ctx), (n, 1)))
         rows["origin"].append(np.tile(origin, (n, 1)))
+        lam, limits = forces
         rows["lam"].append(np.asarray(lam).reshape(n, -1))
+        rows["limits"].append(np.asarray(limits).reshape(n, -1))
         # Gravity potential in the first step's frame: -weight . (p + origin).
         rows["energy"].append(np.asarray(energy).reshape(n) - self.weight @ origin)
         rows["power"].append(np.asarray(power).reshape(n))
@@ -244,7 +251,7 @@ def _sample_phase(sample, interp, actuated: bool, params, st: _Walk, k: int, spa
     ts = nodes if not actuated else np.concatenate([nodes, 0.5 * (nodes[:-1] + nodes[1:])])
     pad = np.full(_padded(len(ts)), t_event)
     pad[: len(ts)] = ts
-    ys, lam, energy, power = sample(interp, jnp.asarray(pad), params, st.phase, st.ctx)
+    ys, (lam, limits), energy, power = sample(interp, jnp.asarray(pad), params, st.phase, st.ctx)
     power = np.asarray(power)
     if actuated:
         m = len(nodes)
@@ -254,7 +261,7 @@ def _sample_phase(sample, interp, actuated: bool, params, st: _Walk, k: int, spa
     else:
         work_nodes = np.full(len(nodes), st.work)
     inner = slice(1, len(nodes) - 1)
-    samples.add(grid, k, int(st.phase), REGULAR, -1, ys[inner], st.ctx, st.origin, lam[inner], energy[inner], power[inner], work_nodes[inner])
+    samples.add(grid, k, int(st.phase), REGULAR, -1, ys[inner], st.ctx, st.origin, (lam[inner], limits[inner]), energy[inner], power[inner], work_nodes[inner])
     st.work = float(work_nodes[-1])
 
 
@@ -267,15 +274,15 @@ def _record_event(observe, params, out, st: _Walk, k: int, samples: _Samples) ->
     step_code = int(out.status)
     guard = int(out.guard) if bool(out.event_happened) else -1
     both_y = jnp.stack([out.y_event, out.y_next])
-    lam2, energy2, power2 = observe(params, both_y, jnp.stack([st.phase, out.phase_next]), jnp.stack([st.ctx, out.ctx_next]))
-    samples.add(b, k, int(st.phase), BEFORE_EVENT, guard, both_y[:1], st.ctx, st.origin, lam2[:1], energy2[:1], power2[:1], st.work)
+    lam2, limits2, energy2, power2 = observe(params, both_y, jnp.stack([st.phase, out.phase_next]), jnp.stack([st.ctx, out.ctx_next]))
+    samples.add(b, k, int(st.phase), BEFORE_EVENT, guard, both_y[:1], st.ctx, st.origin, (lam2[:1], limits2[:1]), energy2[:1], power2[:1], st.work)
     if step_code in (int(Status.IN_PROGRESS), int(Status.OK)):
         next_step = k + 1 if bool(out.step_done) else k
         if bool(out.step_done):
             # Same hip, new frame: the frame moved by the hip's change of coordinates.
             st.origin = st.origin + np.asarray(out.y_event[:2] - out.y_next[:2])
         samples.add(b, next_step, int(out.phase_next), AFTER_EVENT, guard, both_y[1:], out.ctx_next, st.origin,
-                    lam2[1:], energy2[1:], power2[1:], st.work)
+                    (lam2[1:], limits2[1:]), energy2[1:], power2[1:], st.work)
     st.y, st.phase, st.ctx = out.y_next, out.phase_next, out.ctx_next
     return step_code
 
@@ -291,6 +298,7 @@ def _trajectory(cat: dict[str, np.ndarray], steps: dict[str, list], status: int,
         ctx=cat["ctx"],
         origin=cat["origin"],
         contact_force=cat["lam"],
+        limit_use=cat["limits"],
         energy=cat["energy"],
         actuator_power=cat["power"],
         work=cat["work"],

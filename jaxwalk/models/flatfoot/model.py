@@ -21,6 +21,7 @@ import jax.numpy as jnp
 
 from jaxwalk import mechanics
 from jaxwalk.models.flatfoot import events, forces
+from jaxwalk.models.flatfoot import limits as contact_limits
 from jaxwalk.models.flatfoot import geometry as geo
 from jaxwalk.models.flatfoot import phases as ph
 from jaxwalk.parameters import ParamSpec, nonnegative, positive
@@ -100,6 +101,7 @@ class FlatFootWalker(Walker):
     coordinates = ("x_h", "y_h", "thigh_1", "shank_1", "thigh_2", "shank_2")
     phases = ph.PHASE_NAMES
     guards = events.GUARD_NAMES
+    limits = contact_limits.LIMIT_NAMES
     context = ph.CONTEXT
     ground_next = ph.C["ground_next"]
     section_names = ("psi", "psi_dot")
@@ -193,6 +195,10 @@ class FlatFootWalker(Walker):
         )
 
     # ------------------------------------------------------------ extras
+    def limit_use(self, y, params, phase, ctx):
+        """Use of the contact limits in :attr:`limits`; see :func:`~jaxwalk.models.flatfoot.limits.limit_use`."""
+        return contact_limits.limit_use(self, y, params, phase, ctx)
+
     def reactions(self, y, params, phase, ctx):
         """Ground reactions ``(stance, cop, toe_2, heel_2)``; see :func:`forces.contact_reactions`."""
         q, _ = self.split(y)
