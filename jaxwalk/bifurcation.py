@@ -257,6 +257,7 @@ class _Rounds:
             edge = int(np.ceil(np.log2(max(width / (2 * options.tol), 1.0)))) + 1
         else:
             edge = 0
+        self.edge_left = max(edge - 1, 0)  # bisection rounds planned (the last +1: the final solve)
         if bar is not None:
             bar.total = self.sign_left + edge
             bar.refresh()
@@ -273,6 +274,14 @@ class _Rounds:
             self.bar.total -= self.sign_left - 1
             self.bar.refresh()
         self.sign_left = min(self.sign_left, 1)
+
+    def edges_done(self, used: int) -> None:
+        """The bisections took ``used`` rounds; fewer than planned (a followed
+        cycle shrinks a bracket by more than half) leave the total."""
+        if self.bar is not None and self.edge_left > used:
+            self.bar.total -= self.edge_left - used
+            self.bar.refresh()
+        self.edge_left = 0
 
 
 def _params_at(lines, axis, line_index: np.ndarray, x: np.ndarray, i: np.ndarray) -> dict[str, np.ndarray]:
@@ -339,7 +348,16 @@ def _shrink_signs(model, lines, axis, v, tests, rows, period, options, solver, n
 
 
 def _shrink_edges(model, lines, axis, status, v, rows, period, options, solver, newton, rounds: _Rounds) -> list[dict]:
-    """Bisection on "the cycle is found, from the found side" at each edge of a line's gaits."""
+    """Bisection on "the cycle is followed there" at each edge of a line's gaits.
+
+    A Newton solve that fails from the last found cycle does not show that the
+    cycle is gone: far from the edge's bracket end its start can lie where a
+    step fails although the cycle exists (the flat-foot walker's unstable
+    gaits, whose steps diverge from an offset start). Such a failure is checked
+    by following the cycle in :data:`APPROACH_STEPS` steps from the found end
+    (:func:`_approach`); the bracket becomes the last step reached and the
+    first that failed, at most half the old one.
+    """
     if not rows:
         return []
     line = np.array([r[0] for r in rows])
@@ -349,19 +367,30 @@ def _shrink_edges(model, lines, axis, status, v, rows, period, options, solver, 
     good, bad = x[line, ok_i].copy(), x[line, bad_i].copy()
     v_good = v[line, ok_i].copy()
     beyond = status[line, bad_i].astype(np.int8)
-    mu_good = np.full(v_good.shape, np.nan, np.complex128)
+    solve = lambda at, which, guess: _evaluate(model, period, solver, newton, _params_at(lines, axis, line[which], at, ok_i[which]), guess)
+    used = 0
     while (np.abs(bad - good) > 2 * options.tol).any():
         mid = 0.5 * (good + bad)
         rounds.advance()
-        st, v_m, mu = _evaluate(model, period, solver, newton, _params_at(lines, axis, line, mid, ok_i), v_good)
+        used += 1
+        st, v_m, _ = solve(mid, slice(None), v_good)
         found = st == Status.OK
+        lost = np.flatnonzero(~found)
+        if lost.size:
+            reached, v_reached, failed, why = _approach(solve, lost, good[lost], mid[lost], v_good[lost])
+            confirmed = np.isfinite(failed)
+            v_m[lost], st[lost] = v_reached, np.where(confirmed, why, Status.OK)
+            found[lost] = ~confirmed
+            mid[lost] = np.where(confirmed, failed, mid[lost])
+            good[lost] = np.where(confirmed, reached, good[lost])
+            v_good[lost] = np.where(confirmed[:, None], v_reached, v_good[lost])
         good = np.where(found, mid, good)
         v_good = np.where(found[:, None], v_m, v_good)
-        mu_good = np.where(found[:, None], mu, mu_good)
-        beyond = np.where(found, beyond, st).astype(np.int8)
         bad = np.where(found, bad, mid)
+        beyond = np.where(found, beyond, st).astype(np.int8)
+    rounds.edges_done(used)
     rounds.advance()
-    st, v_g, mu_g = _evaluate(model, period, solver, newton, _params_at(lines, axis, line, good, ok_i), v_good)
+    st, v_g, mu_g = solve(good, slice(None), v_good)
     out = []
     for r in range(len(rows)):
         real = mu_g[r][np.abs(mu_g[r].imag) < 1e-9].real
@@ -371,3 +400,41 @@ def _shrink_edges(model, lines, axis, status, v, rows, period, options, solver, 
         out.append({"kind": kind, "parameter": 0.5 * (good[r] + bad[r]), "line": line[r], "status": st[r],
                     "v": v_g[r], "multipliers": mu_g[r], "beyond": beyond[r]})
     return out
+
+
+#: Steps in which :func:`_approach` follows a cycle to where a direct solve failed.
+APPROACH_STEPS = 4
+
+
+def _approach(solve, which: np.ndarray, good: np.ndarray, target: np.ndarray, v_good: np.ndarray):
+    """Follow the cycles of rows ``which`` from ``good`` towards ``target`` in
+    :data:`APPROACH_STEPS` equal steps, each solve from the last found cycle.
+
+    Returns ``(reached, v_reached, failed, status)`` per row: the last value
+    where the cycle was found and its point, the first value where it was not
+    (``target`` itself if every earlier step was found: the direct failure
+    stands), and that failure's status.
+    """
+    reached, v_reached = good.copy(), v_good.copy()
+    failed = target.copy()
+    why = np.full(len(which), Status.NO_CONVERGENCE, np.int8)
+    going = np.ones(len(which), bool)
+    for j in range(1, APPROACH_STEPS):
+        if not going.any():
+            break
+        at = good + (target - good) * j / APPROACH_STEPS
+        st, v_at, _ = solve(at[going], which[going], v_reached[going])
+        idx = np.flatnonzero(going)
+        ok = st == Status.OK
+        reached[idx[ok]], v_reached[idx[ok]] = at[going][ok], v_at[ok]
+        failed[idx[~ok]], why[idx[~ok]] = at[going][~ok], st[~ok]
+        going[idx[~ok]] = False
+    # Every intermediate step found: a last solve at the target from the nearest one.
+    if going.any():
+        idx = np.flatnonzero(going)
+        st, v_at, _ = solve(target[idx], which[idx], v_reached[idx])
+        ok = st == Status.OK
+        reached[idx[ok]], v_reached[idx[ok]] = target[idx[ok]], v_at[ok]
+        why[idx[~ok]] = st[~ok]
+        failed[idx[ok]] = np.nan  # found: no failure on this side
+    return reached, v_reached, failed, why

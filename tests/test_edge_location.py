@@ -1,0 +1,58 @@
+"""Where a line's gait is lost, the edge is located where the gait ends, not
+where Newton first failed to reach it (jaxwalk.bifurcation._shrink_edges).
+
+A synthetic re-solve stands in for Newton: the cycle exists below ``EDGE`` and
+is found only from a start within ``REACH`` of the target (the start's
+parameter is carried in its first coordinate). A bisection that takes a
+failure from a far start for the gait's end stops short of ``EDGE``; following
+the cycle there in steps does not.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from jaxwalk import bifurcation
+from jaxwalk.bifurcation import BifurcationOptions, Kind, locate
+from jaxwalk.models import get_model
+from jaxwalk.status import Status
+
+EDGE, REACH = 0.7, 0.2
+
+
+def _fake_evaluate(model, k, solver, newton, params, v0):
+    x, start = np.asarray(params["gamma"], np.float64), np.asarray(v0)[:, 0]
+    found = (x < EDGE) & (np.abs(x - start) <= REACH)
+    # Beyond the edge a step fails (a grazing edge); short of it, far starts do not converge.
+    status = np.where(found, Status.OK, np.where(x >= EDGE, Status.SCUFFING, Status.NO_CONVERGENCE)).astype(np.int8)
+    v = np.stack([x, np.zeros_like(x)], axis=1)
+    return status, v, np.tile(np.array([0.5, 0.1], np.complex128), (len(x), 1))
+
+
+class _Bar:
+    def __init__(self):
+        self.total, self.n = 0, 0
+
+    def update(self, k):
+        self.n += k
+
+    def refresh(self):
+        pass
+
+
+@pytest.mark.parametrize("found_end", [0, 1])
+def test_a_lost_gait_is_followed_to_its_edge(monkeypatch, found_end):
+    monkeypatch.setattr(bifurcation, "_evaluate", _fake_evaluate)
+    x = np.array([[0.0, 1.0]]) if found_end == 0 else np.array([[1.0, 0.0]])
+    status = np.full((1, 2), Status.SCUFFING, np.int8)
+    status[0, found_end] = Status.OK
+    v = np.full((1, 2, 2), np.nan)
+    v[0, found_end] = [x[0, found_end], 0.0]
+    mu = np.full((1, 2, 2), np.nan, np.complex128)
+    bar = _Bar()
+    found = locate(get_model("simplest"), {"gamma": x}, "gamma", status, v, mu, options=BifurcationOptions(tol=1e-6), progress=bar)
+    assert found.kind.tolist() == [Kind.GRAZING] and found.beyond.tolist() == [Status.SCUFFING]
+    assert abs(found.parameter[0] - EDGE) <= 1e-6
+    assert found.v[0, 0] < EDGE and EDGE - found.v[0, 0] <= 2e-6  # the found side's cycle
+    assert bar.n == bar.total  # the bar ends full when the brackets shrink faster than planned
