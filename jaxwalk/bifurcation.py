@@ -12,7 +12,9 @@ with the parameter. A bifurcation is where a test function changes sign:
   ``mu_i mu_j = 1`` is complex).
 
 Where the line goes on but its gait is lost (Newton fails on one side), the
-edge is located by bisection on "a gait is found" and labelled **grazing**
+edge is located by bisection on "the gait is followed there" (a failure is
+confirmed by following the gait to it in steps, and the grid point beyond is
+itself re-solved from the gait next to it) and labelled **grazing**
 when the failure beyond it is a step's (a guard reached: scuffing, a fall,
 ...: the event sequence changes), **fold** when a real multiplier is within
 ``fold_window`` of +1 at the edge (the gait turns back: a natural-parameter
@@ -233,7 +235,7 @@ def locate(
             edge_rows.append((line, i, i + 1) if ok_a else (line, i + 1, i))  # (line, found, lost)
     rounds = _Rounds(progress, sign_rows, edge_rows, np.asarray(lines[axis], np.float64), options)
     rows = _shrink_signs(model, lines, axis, v, tests, sign_rows, period, options, solver, newton, rounds)
-    rows += _shrink_edges(model, lines, axis, status, v, edge_rows, period, options, solver, newton, rounds)
+    rows += _shrink_edges(model, lines, axis, status, v, multipliers, edge_rows, period, options, solver, newton, rounds)
     rows.sort(key=lambda r: (r["line"], r["parameter"]))
     n_v = v.shape[-1]
     col = lambda key, dtype: np.array([r[key] for r in rows], dtype)
@@ -257,7 +259,7 @@ class _Rounds:
             edge = int(np.ceil(np.log2(max(width / (2 * options.tol), 1.0)))) + 1
         else:
             edge = 0
-        self.edge_left = max(edge - 1, 0)  # bisection rounds planned (the last +1: the final solve)
+        self.edge_left = edge  # bisection rounds planned, and one to solve at the failed grid point
         if bar is not None:
             bar.total = self.sign_left + edge
             bar.refresh()
@@ -275,11 +277,19 @@ class _Rounds:
             self.bar.refresh()
         self.sign_left = min(self.sign_left, 1)
 
-    def edges_done(self, used: int) -> None:
-        """The bisections took ``used`` rounds; fewer than planned (a followed
-        cycle shrinks a bracket by more than half) leave the total."""
-        if self.bar is not None and self.edge_left > used:
-            self.bar.total -= self.edge_left - used
+    def edge_round(self) -> None:
+        """One round of the edges' location; past the plan (a grid point found to
+        hold the gait moves the edge on to the next interval) the total grows."""
+        if self.edge_left > 0:
+            self.edge_left -= 1
+        elif self.bar is not None:
+            self.bar.total += 1
+        self.advance()
+
+    def edges_done(self) -> None:
+        """The edges are located; rounds planned but not needed leave the total."""
+        if self.bar is not None and self.edge_left > 0:
+            self.bar.total -= self.edge_left
             self.bar.refresh()
         self.edge_left = 0
 
@@ -347,94 +357,126 @@ def _shrink_signs(model, lines, axis, v, tests, rows, period, options, solver, n
     return out
 
 
-def _shrink_edges(model, lines, axis, status, v, rows, period, options, solver, newton, rounds: _Rounds) -> list[dict]:
+def _shrink_edges(model, lines, axis, status, v, multipliers, rows, period, options, solver, newton,
+                  rounds: _Rounds) -> list[dict]:
     """Bisection on "the cycle is followed there" at each edge of a line's gaits.
 
     A Newton solve that fails from the last found cycle does not show that the
-    cycle is gone: far from the edge's bracket end its start can lie where a
+    cycle is gone: far from the bracket's found end its start can lie where a
     step fails although the cycle exists (the flat-foot walker's unstable
     gaits, whose steps diverge from an offset start). Such a failure is checked
-    by following the cycle in :data:`APPROACH_STEPS` steps from the found end
-    (:func:`_approach`); the bracket becomes the last step reached and the
-    first that failed, at most half the old one.
+    by following the cycle in :data:`APPROACH_STEPS` steps (:func:`_approach`);
+    the bracket becomes the last step reached and the first that failed. The
+    same holds for the grid point beyond the edge, whose failure the line's own
+    continuation found from its other side or from far away: once the bracket
+    has closed on it, it is solved from the cycle next to it, and where the
+    cycle is found there the edge moves on to the next interval (or, past the
+    line's last point, there is none).
     """
     if not rows:
         return []
-    line = np.array([r[0] for r in rows])
-    ok_i = np.array([r[1] for r in rows])
-    bad_i = np.array([r[2] for r in rows])
-    x = np.asarray(lines[axis], np.float64)
-    good, bad = x[line, ok_i].copy(), x[line, bad_i].copy()
-    v_good = v[line, ok_i].copy()
-    beyond = status[line, bad_i].astype(np.int8)
-    solve = lambda at, which, guess: _evaluate(model, period, solver, newton, _params_at(lines, axis, line[which], at, ok_i[which]), guess)
-    used = 0
-    while (np.abs(bad - good) > 2 * options.tol).any():
-        mid = 0.5 * (good + bad)
-        rounds.advance()
-        used += 1
-        st, v_m, _ = solve(mid, slice(None), v_good)
+    e = _Edges.start(rows, np.asarray(lines[axis], np.float64), status, v, multipliers)
+    solve = lambda at, which, guess: _evaluate(model, period, solver, newton, _params_at(lines, axis, e.line[which], at, e.ok_i[which]), guess)
+    while True:
+        narrow = np.abs(e.bad - e.good) <= 2 * options.tol
+        probe = narrow & e.untested & ~e.ended
+        idx = np.flatnonzero((~narrow | probe) & ~e.ended)
+        if idx.size == 0:
+            break
+        rounds.edge_round()
+        at = np.where(probe, e.bad, 0.5 * (e.good + e.bad))[idx]
+        st, v_at, mu_at = solve(at, idx, e.v_good[idx])
+        lost = np.flatnonzero(st != Status.OK)
+        reached, v_r, mu_r, failed, why = _approach(solve, idx[lost], e.good[idx[lost]], at[lost], e.v_good[idx[lost]], e.mu_good[idx[lost]])
         found = st == Status.OK
-        lost = np.flatnonzero(~found)
-        if lost.size:
-            reached, v_reached, failed, why = _approach(solve, lost, good[lost], mid[lost], v_good[lost])
-            confirmed = np.isfinite(failed)
-            v_m[lost], st[lost] = v_reached, np.where(confirmed, why, Status.OK)
-            found[lost] = ~confirmed
-            mid[lost] = np.where(confirmed, failed, mid[lost])
-            good[lost] = np.where(confirmed, reached, good[lost])
-            v_good[lost] = np.where(confirmed[:, None], v_reached, v_good[lost])
-        good = np.where(found, mid, good)
-        v_good = np.where(found[:, None], v_m, v_good)
-        bad = np.where(found, bad, mid)
-        beyond = np.where(found, beyond, st).astype(np.int8)
-    rounds.edges_done(used)
-    rounds.advance()
-    st, v_g, mu_g = solve(good, slice(None), v_good)
+        found[lost] = ~np.isfinite(failed)
+        v_at[lost], mu_at[lost] = v_r, mu_r
+        e.found_at(idx[found], at[found], v_at[found], mu_at[found], probe[idx[found]])
+        k = np.flatnonzero(~found)
+        which = np.searchsorted(lost, k)  # rows of `lost` that the approach confirmed
+        e.lost_at(idx[k], reached[which], v_r[which], mu_r[which], failed[which], why[which])
+    rounds.edges_done()
     out = []
-    for r in range(len(rows)):
-        real = mu_g[r][np.abs(mu_g[r].imag) < 1e-9].real
+    for r in np.flatnonzero(~e.ended):
+        real = e.mu_good[r][np.abs(e.mu_good[r].imag) < 1e-9].real
         near_one = real.size and np.min(np.abs(real - 1.0)) < options.fold_window
-        step_failed = beyond[r] not in (Status.NO_CONVERGENCE, Status.NONFINITE, Status.NOT_DIFFERENTIABLE)
+        step_failed = e.beyond[r] not in (Status.NO_CONVERGENCE, Status.NONFINITE, Status.NOT_DIFFERENTIABLE)
         kind = Kind.FOLD if near_one else Kind.GRAZING if step_failed else Kind.LOST
-        out.append({"kind": kind, "parameter": 0.5 * (good[r] + bad[r]), "line": line[r], "status": st[r],
-                    "v": v_g[r], "multipliers": mu_g[r], "beyond": beyond[r]})
+        out.append({"kind": kind, "parameter": 0.5 * (e.good[r] + e.bad[r]), "line": e.line[r], "status": Status.OK,
+                    "v": e.v_good[r], "multipliers": e.mu_good[r], "beyond": e.beyond[r]})
     return out
+
+
+@dataclasses.dataclass
+class _Edges:
+    """The brackets of :func:`_shrink_edges`, one row per edge: ``good`` (the
+    cycle found there: ``v_good``, ``mu_good``) and ``bad`` (the failure
+    ``beyond``; ``untested`` while it is the grid point as the line's
+    continuation left it), on line ``line`` between grid points ``ok_i`` and
+    ``bad_i``; ``ended``: the cycle was followed past the line's last point."""
+
+    line: np.ndarray
+    ok_i: np.ndarray
+    bad_i: np.ndarray
+    x: np.ndarray
+    status: np.ndarray
+    good: np.ndarray
+    bad: np.ndarray
+    v_good: np.ndarray
+    mu_good: np.ndarray
+    beyond: np.ndarray
+    untested: np.ndarray
+    ended: np.ndarray
+
+    @classmethod
+    def start(cls, rows, x, status, v, multipliers) -> "_Edges":
+        line, ok_i, bad_i = (np.array([r[k] for r in rows]) for k in range(3))
+        return cls(line, ok_i, bad_i, x, status, x[line, ok_i].copy(), x[line, bad_i].copy(), v[line, ok_i].copy(),
+                   np.asarray(multipliers)[line, ok_i].copy(), status[line, bad_i].astype(np.int8),
+                   np.ones(len(rows), bool), np.zeros(len(rows), bool))
+
+    def found_at(self, r, at, v, mu, probed) -> None:
+        """The cycle was found at ``at``; a probed grid point moves the edge on one interval."""
+        self.good[r], self.v_good[r], self.mu_good[r] = at, v, mu
+        moved = r[probed]
+        self.bad_i[moved] += np.sign(self.bad_i[moved] - self.ok_i[moved])
+        past = (self.bad_i[moved] < 0) | (self.bad_i[moved] >= self.x.shape[1])
+        self.ended[moved[past]] = True
+        on = moved[~past]
+        self.bad[on], self.beyond[on] = self.x[self.line[on], self.bad_i[on]], self.status[self.line[on], self.bad_i[on]]
+
+    def lost_at(self, r, reached, v, mu, failed, why) -> None:
+        """The cycle, followed, was found up to ``reached`` and lost at ``failed`` (status ``why``)."""
+        self.good[r], self.v_good[r], self.mu_good[r] = reached, v, mu
+        self.bad[r], self.beyond[r], self.untested[r] = failed, why, False
 
 
 #: Steps in which :func:`_approach` follows a cycle to where a direct solve failed.
 APPROACH_STEPS = 4
 
 
-def _approach(solve, which: np.ndarray, good: np.ndarray, target: np.ndarray, v_good: np.ndarray):
+def _approach(solve, which: np.ndarray, good: np.ndarray, target: np.ndarray, v_good: np.ndarray, mu_good: np.ndarray):
     """Follow the cycles of rows ``which`` from ``good`` towards ``target`` in
     :data:`APPROACH_STEPS` equal steps, each solve from the last found cycle.
 
-    Returns ``(reached, v_reached, failed, status)`` per row: the last value
-    where the cycle was found and its point, the first value where it was not
-    (``target`` itself if every earlier step was found: the direct failure
-    stands), and that failure's status.
+    Returns ``(reached, v_reached, mu_reached, failed, status)`` per row: the
+    last value where the cycle was found, its point and multipliers, the first
+    value where it was not (NaN if the target itself was reached) and that
+    failure's status.
     """
-    reached, v_reached = good.copy(), v_good.copy()
+    reached, v_reached, mu_reached = good.copy(), v_good.copy(), mu_good.copy()
     failed = target.copy()
     why = np.full(len(which), Status.NO_CONVERGENCE, np.int8)
     going = np.ones(len(which), bool)
-    for j in range(1, APPROACH_STEPS):
-        if not going.any():
+    for j in range(1, APPROACH_STEPS + 1):
+        idx = np.flatnonzero(going)
+        if idx.size == 0:
             break
-        at = good + (target - good) * j / APPROACH_STEPS
-        st, v_at, _ = solve(at[going], which[going], v_reached[going])
-        idx = np.flatnonzero(going)
+        at = good[idx] + (target[idx] - good[idx]) * j / APPROACH_STEPS
+        st, v_at, mu_at = solve(at, which[idx], v_reached[idx])
         ok = st == Status.OK
-        reached[idx[ok]], v_reached[idx[ok]] = at[going][ok], v_at[ok]
-        failed[idx[~ok]], why[idx[~ok]] = at[going][~ok], st[~ok]
+        reached[idx[ok]], v_reached[idx[ok]], mu_reached[idx[ok]] = at[ok], v_at[ok], mu_at[ok]
+        failed[idx[~ok]], why[idx[~ok]] = at[~ok], st[~ok]
         going[idx[~ok]] = False
-    # Every intermediate step found: a last solve at the target from the nearest one.
-    if going.any():
-        idx = np.flatnonzero(going)
-        st, v_at, _ = solve(target[idx], which[idx], v_reached[idx])
-        ok = st == Status.OK
-        reached[idx[ok]], v_reached[idx[ok]] = target[idx[ok]], v_at[ok]
-        why[idx[~ok]] = st[~ok]
-        failed[idx[ok]] = np.nan  # found: no failure on this side
-    return reached, v_reached, failed, why
+    failed[going] = np.nan  # every step found, the target too: no failure on this side
+    return reached, v_reached, mu_reached, failed, why

@@ -56,3 +56,31 @@ def test_a_lost_gait_is_followed_to_its_edge(monkeypatch, found_end):
     assert abs(found.parameter[0] - EDGE) <= 1e-6
     assert found.v[0, 0] < EDGE and EDGE - found.v[0, 0] <= 2e-6  # the found side's cycle
     assert bar.n == bar.total  # the bar ends full when the brackets shrink faster than planned
+
+
+def test_a_grid_point_the_line_lost_from_afar_moves_the_edge_on(monkeypatch):
+    """The line's own continuation marked r = 0.5 failed (it came from the far
+    side), but the cycle is found there from its neighbour: the edge is located
+    in the next interval, at the cycle's real end."""
+    monkeypatch.setattr(bifurcation, "_evaluate", _fake_evaluate)
+    x = np.array([[0.0, 0.5, 1.0]])
+    status = np.array([[Status.OK, Status.RUNNING, Status.SCUFFING]], np.int8)
+    v = np.full((1, 3, 2), np.nan)
+    v[0, 0] = [0.0, 0.0]
+    mu = np.full((1, 3, 2), np.nan, np.complex128)
+    bar = _Bar()
+    found = locate(get_model("simplest"), {"gamma": x}, "gamma", status, v, mu, progress=bar)
+    assert found.kind.tolist() == [Kind.GRAZING] and found.beyond.tolist() == [Status.SCUFFING]
+    assert abs(found.parameter[0] - EDGE) <= 1e-6
+    assert bar.n == bar.total
+
+
+def test_a_cycle_followed_past_the_line_end_has_no_edge(monkeypatch):
+    monkeypatch.setattr(bifurcation, "_evaluate", _fake_evaluate)
+    x = np.array([[0.0, 0.3, 0.6]])  # all below EDGE: the marked failures are the line's, not the cycle's
+    status = np.array([[Status.OK, Status.RUNNING, Status.RUNNING]], np.int8)
+    v = np.full((1, 3, 2), np.nan)
+    v[0, 0] = [0.0, 0.0]
+    bar = _Bar()
+    found = locate(get_model("simplest"), {"gamma": x}, "gamma", status, v, np.full((1, 3, 2), np.nan, np.complex128), progress=bar)
+    assert len(found.kind) == 0 and bar.n == bar.total
