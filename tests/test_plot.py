@@ -379,3 +379,18 @@ def test_curves_are_readable_on_white_and_failure_rows_named():
     strip = fig.axes[1]
     labels = [t.get_text() for t in strip.get_yticklabels()]
     assert labels == [f"{v:.3g}" for v in ds.m_h.values]  # one row per curve, named by its value
+
+
+def test_a_long_axis_label_wraps_without_breaking_its_units():
+    """A parameter description longer than a figure's width goes on two lines,
+    and a short parenthesis (units such as "(M g L)") stays whole; a short label
+    stays on one line."""
+    from jaxwalk.plot.labels import AXIS_LABEL_WIDTH, axis_label
+
+    long = "push-off torque at the trailing ankle while its foot pivots on its toe (M g L), toe-down on the foot"
+    ds = xr.Dataset(coords={"ankle_push": ("ankle_push", [0.05, 0.1], {"long_name": long}),
+                            "gamma": ("gamma", [0.01], {"long_name": "slope angle", "units": "rad"})})
+    lines = axis_label(ds, "ankle_push").split("\n")
+    assert len(lines) == 2 and all(len(line) <= AXIS_LABEL_WIDTH for line in lines)
+    assert "(M\u00a0g\u00a0L)" in lines[1]
+    assert axis_label(ds, "gamma") == "gamma: slope angle [rad]"

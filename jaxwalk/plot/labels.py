@@ -7,6 +7,9 @@ declaration gives (:attr:`jaxwalk.outputs.Output.label`) and units.
 
 from __future__ import annotations
 
+import re
+import textwrap
+
 import xarray as xr
 
 from jaxwalk import analyses
@@ -19,6 +22,9 @@ MEANINGS = {o.name: o.meaning for o in analyses.declared() if o.meaning}
 STABILITY_LIMIT = r"$\lambda_{\max} = 1$ (stability limit)"
 #: The legend text of gaits found but unstable.
 UNSTABLE = r"unstable gait ($\lambda_{\max} \geq 1$)"
+#: Characters per line of a long axis label: about what a 12-inch figure holds
+#: at the axes' font size; a longer parameter description goes on two lines.
+AXIS_LABEL_WIDTH = 90
 
 
 def _units(da: xr.DataArray) -> str:
@@ -31,7 +37,9 @@ def axis_label(ds: xr.Dataset, axis: str, long: bool = True) -> str:
     (small multiples: the long form does not fit under a small panel)."""
     coord = ds[axis]
     long_name = coord.attrs.get("long_name") if long else None
-    return (f"{axis}: {long_name}" if long_name else axis) + _units(coord)
+    # Short parentheses (units such as "(M g L)") are not broken across lines.
+    text = re.sub(r"\([^()]{1,12}\)", lambda m: m.group(0).replace(" ", "\u00a0"), f"{axis}: {long_name}" if long_name else axis)
+    return textwrap.fill(text + _units(coord), AXIS_LABEL_WIDTH)
 
 
 def variable_label(ds: xr.Dataset, name: str) -> str:
