@@ -198,19 +198,114 @@ def settle(model: Walker, params, v0: Array, options: AttractorOptions, solver: 
     return c.v, c.k, c.n, c.status
 
 
-class _CycleNewton(NamedTuple):
-    """The carry of :func:`find_cycle`'s loop, one Newton iteration or halving per trip."""
+class _CycleSolve(NamedTuple):
+    """The carry of :func:`_solve_cycle`'s loop: one step of the step map per trip.
 
-    v: Array  # (n_v,) the iterate
+    The k steps of one evaluation of ``f^k`` are trips of the same loop as the
+    Newton updates between them (the update is made in the trip after the k-th
+    step), so under ``vmap`` a batch pays for its longest lane's total of steps,
+    not for its most Newton iterations times its longest period.
+    """
+
+    k: Array  # int32, the period solved for
+    x: Array  # (n_v,) the point after j steps of the current evaluation
+    dx: Array  # (n_v, n_v) d x / d v (the chain of the steps' Jacobians)
+    j: Array  # int32, steps of the current evaluation taken
+    walked: Array  # (max_period, n_v): walked[i] after i steps, for i < j
+    step_status: Array  # int8, the current evaluation's first failed step's (OK if none)
+    v: Array  # (n_v,) the Newton iterate: where the current evaluation started
     it: Array  # int32, Newton iterations so far
     status: Array  # int8; IN_PROGRESS while the search goes on
     converged: Array  # bool: the last update fell below the tolerance
     jac: Array  # (n_v, n_v) d f^k / dv at the last iterate whose steps did not fail
-    points: Array  # (max_period, n_v) the cycle's points there
+    points: Array  # (max_period, n_v) the cycle's points there (cycle_map's)
     v_prev: Array  # (n_v,) the iterate an update is halved back towards
     last: Array  # (n_v,) the last update
     halvings: Array  # int32, halvings of the current update
-    trips: Array  # int32, loop trips (bounded)
+    trips: Array  # int32, Newton trips (iterations, halvings, the last evaluation) of this solve
+
+
+def _fresh_solve(k: Array, v: Array, max_period: int) -> dict:
+    """The carry's fields at the start of a Newton solve of ``f^k`` from ``v``."""
+    n_v = v.shape[0]
+    nan = jnp.full((), jnp.nan, v.dtype)
+    return dict(k=k, x=v, dx=jnp.eye(n_v, dtype=v.dtype), j=jnp.zeros((), jnp.int32),
+                walked=jnp.broadcast_to(v, (max_period, n_v)), step_status=jnp.int8(Status.OK), v=v,
+                it=jnp.zeros((), jnp.int32), status=jnp.int8(Status.IN_PROGRESS), converged=jnp.asarray(False),
+                jac=jnp.full((n_v, n_v), nan), points=jnp.full((max_period, n_v), nan), v_prev=v,
+                last=jnp.zeros_like(v), halvings=jnp.zeros((), jnp.int32), trips=jnp.zeros((), jnp.int32))
+
+
+def _newton_trip(c: _CycleSolve, newton: NewtonOptions) -> _CycleSolve:
+    """The Newton update after an evaluation of ``f^k`` (as :func:`jaxwalk.gait.find_gait`'s):
+    a converged iterate ends the solve after one more evaluation (its Jacobian);
+    an update whose k steps fail is halved, up to :data:`MAX_HALVINGS` times (a
+    k-step map's Newton step can overshoot into scuffing)."""
+    eye = jnp.eye(c.v.shape[0], dtype=c.v.dtype)
+    rows = jnp.arange(c.walked.shape[0])[:, None]
+    points = jnp.where(rows < c.j, c.walked, c.x)
+    r, jac_r = c.x - c.v, c.dx - eye
+    update = -mechanics.solve(jac_r, r)
+    size = jnp.max(jnp.abs(update))
+    update = update * jnp.minimum(1.0, newton.max_update / jnp.maximum(size, 1e-300))
+    failed = c.step_status != Status.OK
+    retry = failed & (c.it > 0) & (c.halvings < MAX_HALVINGS)
+    bad = ~jnp.all(jnp.isfinite(update))
+    it = c.it + jnp.where(c.converged | retry, 0, 1)
+    trips = c.trips + 1
+    max_trips = newton.max_iter * (MAX_HALVINGS + 1) + 1
+    status = jnp.select(
+        [retry, failed, c.converged, bad | (it >= newton.max_iter) | (trips >= max_trips)],
+        [jnp.int8(Status.IN_PROGRESS), c.step_status, jnp.int8(Status.OK), jnp.int8(Status.NO_CONVERGENCE)],
+        jnp.int8(Status.IN_PROGRESS),
+    ).astype(jnp.int8)
+    move = ~(failed | bad | c.converged)
+    half = 0.5 * c.last
+    v = jnp.where(retry, c.v_prev + half, jnp.where(move, c.v + update, c.v))
+    return c._replace(
+        v=v, it=it, status=status, converged=c.converged | (~failed & (size < newton.tol)),
+        jac=jnp.where(failed, c.jac, jac_r + eye), points=jnp.where(failed, c.points, points),
+        v_prev=jnp.where(failed, c.v_prev, c.v), last=jnp.where(retry, half, update),
+        halvings=jnp.where(retry, c.halvings + 1, 0), trips=trips)
+
+
+def _solve_cycle(model: Walker, params, v0: Array, k: Array, max_period: int, solver: SolverOptions,
+                 newton: NewtonOptions, restart: AttractorOptions | None):
+    """Newton on ``f^k`` from ``v0`` in one flat loop (:class:`_CycleSolve`).
+
+    With ``restart``, a converged cycle whose minimal period (:func:`minimal_period`)
+    is shorter than k is solved again, from its first point, at that period.
+    Returns ``(v, k, jacobian, points, status)``.
+    """
+    running = jnp.int8(Status.IN_PROGRESS)
+    rows = jnp.arange(max_period)[:, None]
+
+    def evaluated(c: _CycleSolve):
+        return (c.status == running) & ((c.j >= c.k) | (c.step_status != Status.OK))
+
+    def update(c: _CycleSolve) -> _CycleSolve:
+        done = evaluated(c)
+        n = _newton_trip(c, newton)
+        if restart is not None:
+            k_min = minimal_period(n.points, n.k, restart)
+            again = (n.status == Status.OK) & (k_min < n.k)
+            fresh = _CycleSolve(**_fresh_solve(k_min, n.points[0], max_period))
+            n = jax.tree_util.tree_map(lambda a, b: jnp.where(again, a, b), fresh, n)
+        # The next evaluation starts at the (new) iterate.
+        n = n._replace(x=n.v, dx=jnp.eye(n.v.shape[0], dtype=n.v.dtype), j=jnp.zeros((), jnp.int32),
+                       walked=jnp.broadcast_to(n.v, n.walked.shape), step_status=jnp.int8(Status.OK))
+        return jax.tree_util.tree_map(lambda a, b: jnp.where(done, a, b), n, c)
+
+    def body(c: _CycleSolve) -> _CycleSolve:
+        c = update(c)
+        stepping = (c.status == running) & (c.j < c.k)
+        x_next, jac_step, res = value_and_jacfwd(lambda x: step_map(model, x, params, solver), c.x)
+        stepped = c._replace(x=x_next, dx=jac_step @ c.dx, j=c.j + 1, step_status=res.status.astype(jnp.int8),
+                             walked=jnp.where(rows == c.j, c.x, c.walked))
+        return jax.tree_util.tree_map(lambda a, b: jnp.where(stepping, a, b), stepped, c)
+
+    c = jax.lax.while_loop(lambda c: c.status == running, body, _CycleSolve(**_fresh_solve(k, v0, max_period)))
+    return c.v, c.k, c.jac, c.points, c.status
 
 
 def find_cycle(model: Walker, params, v0: Array, k: Array, max_period: int,
@@ -218,73 +313,18 @@ def find_cycle(model: Walker, params, v0: Array, k: Array, max_period: int,
     """Newton-Raphson fixed point of the k-step map ``f^k`` from ``v0`` (one config).
 
     As :func:`jaxwalk.gait.find_gait` with ``f^k`` for ``f``: each iteration
-    evaluates ``f^k(v) - v`` and its exact Jacobian in one forward-mode pass;
-    after the update that falls below ``newton.tol`` one more evaluation gives
-    the Jacobian at the converged point.
-
-    An update whose steps fail is halved (up to :data:`MAX_HALVINGS` times)
-    instead of ending the search.
+    evaluates ``f^k(v) - v`` and its exact Jacobian (the chain of the k steps'
+    forward-mode Jacobians, event times included); after the update that falls
+    below ``newton.tol`` one more evaluation gives the Jacobian at the converged
+    point. An update whose steps fail is halved (up to :data:`MAX_HALVINGS`
+    times) instead of ending the search.
 
     Returns ``(v, jacobian, points, status)``: the fixed point ``(n_v,)``,
     ``d f^k/dv`` there ``(n_v, n_v)``, the cycle's points ``(max_period, n_v)``
     (:func:`cycle_map`), and ``OK``, a failing step's status or ``NO_CONVERGENCE``.
     """
-    n_v = v0.shape[0]
-    eye = jnp.eye(n_v, dtype=v0.dtype)
-    running = jnp.int8(Status.IN_PROGRESS)
-
-    def residual(v):
-        v_k, points, status = cycle_map(model, params, v, k, max_period, solver)
-        return v_k - v, (points, status)
-
-    # Each trip counts a Newton iteration, a halving (at most MAX_HALVINGS per
-    # iteration) or the last evaluation at the converged point.
-    max_trips = newton.max_iter * (MAX_HALVINGS + 1) + 1
-
-    def cond(c: _CycleNewton):
-        return (c.status == running) & (c.trips < max_trips)
-
-    def body(c: _CycleNewton) -> _CycleNewton:
-        r, jac_r, (points, step_status) = value_and_jacfwd(residual, c.v)
-        update = -mechanics.solve(jac_r, r)
-        size = jnp.max(jnp.abs(update))
-        update = update * jnp.minimum(1.0, newton.max_update / jnp.maximum(size, 1e-300))
-        failed = step_status != Status.OK
-        # Damped Newton: an update whose k steps fail (a k-step map's Newton
-        # step can overshoot into scuffing) is halved, up to MAX_HALVINGS times.
-        retry = failed & (c.it > 0) & (c.halvings < MAX_HALVINGS)
-        bad = ~jnp.all(jnp.isfinite(update))
-        it = c.it + jnp.where(c.converged | retry, 0, 1)
-        status = jnp.select(
-            [retry, failed, c.converged, bad | (it >= newton.max_iter)],
-            [running, step_status, jnp.int8(Status.OK), jnp.int8(Status.NO_CONVERGENCE)],
-            running,
-        ).astype(jnp.int8)
-        move = ~(failed | bad | c.converged)
-        half = 0.5 * c.last
-        return _CycleNewton(
-            v=jnp.where(retry, c.v_prev + half, jnp.where(move, c.v + update, c.v)), it=it, status=status,
-            converged=c.converged | (~failed & (size < newton.tol)),
-            jac=jnp.where(failed, c.jac, jac_r + eye), points=jnp.where(failed, c.points, points),
-            v_prev=jnp.where(failed, c.v_prev, c.v), last=jnp.where(retry, half, update),
-            halvings=jnp.where(retry, c.halvings + 1, 0), trips=c.trips + 1)
-
-    c0 = _CycleNewton(v=v0, it=jnp.zeros((), jnp.int32), status=running, converged=jnp.asarray(False),
-                      jac=jnp.full((n_v, n_v), jnp.nan, v0.dtype), points=jnp.full((max_period, n_v), jnp.nan, v0.dtype),
-                      v_prev=v0, last=jnp.zeros_like(v0), halvings=jnp.zeros((), jnp.int32), trips=jnp.zeros((), jnp.int32))
-    out = jax.lax.while_loop(cond, body, c0)
-    return out.v, out.jac, out.points, out.status
-
-
-class _Polish(NamedTuple):
-    """The carry of :func:`polish_cycle`'s loop, one Newton solve of ``f^k`` per iteration."""
-
-    k: Array  # int32, the period solved for
-    v: Array  # (n_v,) its start
-    jac: Array  # (n_v, n_v) the k-step map's Jacobian at the cycle
-    points: Array  # (max_period, n_v) the cycle (cycle_map's)
-    status: Array  # int8, the last solve's
-    shorter: Array  # bool: the cycle has a shorter period; solve again at it
+    v, _, jac, points, status = _solve_cycle(model, params, v0, k, max_period, solver, newton, None)
+    return v, jac, points, status
 
 
 def polish_cycle(model: Walker, params, v0: Array, k: Array, options: AttractorOptions,
@@ -294,26 +334,10 @@ def polish_cycle(model: Walker, params, v0: Array, k: Array, options: AttractorO
     have settled on a shorter cycle: a slowly converging 2-cycle can repeat to
     ``settle_tol`` after 4 steps first). Returns ``(k, jacobian, points, status)``.
 
-    Both solves are one ``while_loop`` body, so the k-step Newton is traced once.
+    Both solves are trips of one flat loop (:func:`_solve_cycle`), so the step is traced once.
     """
-    n_v = v0.shape[0]
-
-    # Another solve only at a strictly shorter tested period (1, 2, 4, ...,
-    # max_period): at most len(options.periods) solves.
-    def cond(c: _Polish):
-        return c.shorter
-
-    def body(c: _Polish) -> _Polish:
-        _, jac, points, status = find_cycle(model, params, c.v, c.k, options.max_period, solver, newton)
-        k_min = minimal_period(points, c.k, options)
-        shorter = (status == Status.OK) & (k_min < c.k)
-        return _Polish(jnp.where(shorter, k_min, c.k), jnp.where(shorter, points[0], c.v), jac, points, status, shorter)
-
-    nan = jnp.full((), jnp.nan, v0.dtype)
-    c0 = _Polish(k=k, v=v0, jac=jnp.full((n_v, n_v), nan), points=jnp.full((options.max_period, n_v), nan),
-                 status=jnp.int8(Status.OK), shorter=jnp.asarray(True))
-    c = jax.lax.while_loop(cond, body, c0)
-    return c.k, c.jac, c.points, c.status
+    _, k, jac, points, status = _solve_cycle(model, params, v0, k, options.max_period, solver, newton, options)
+    return k, jac, points, status
 
 
 def minimal_period(points: Array, k: Array, options: AttractorOptions) -> Array:
@@ -381,7 +405,7 @@ def grid_attractors(model: Walker, params: dict, gaits: dict, options) -> dict:
 
     Stable gaits are their own attractors, filled in here; only the points with
     an unstable gait are walked (gathered into one batch, so the stable majority
-    never waits in lockstep for them), in sub-batches of ``model.lockstep_batch``.
+    never waits in lockstep for them), in sub-batches of :data:`WALK_SUB_BATCH`.
 
     Args:
         params: every parameter as an array of the block's shape ``S``.
@@ -433,6 +457,16 @@ class PeriodOne(NamedTuple):
     lambda_max: Array  # their largest modulus
 
 
+#: Walks one worker thread advances together (at most the model's
+#: ``lockstep_batch``). Walks differ far more than gait searches do (from 3 to
+#: 200 steps), and a grid's unstable points are usually few: a sub-batch padded
+#: with copies of its last row to 64 lanes costs as much as 64 walks (17
+#: unstable points of the simplest walker's slope line: 1.04 s at 64 lanes,
+#: 0.43 s at 17; benchmarks/README.md), while 64 real walks run only 1.3x
+#: faster 64 wide than 16 wide.
+WALK_SUB_BATCH = 16
+
+
 @functools.lru_cache(maxsize=None)
 def _attractor_program(model: Walker, settings: AttractorOptions, solver: SolverOptions, newton: NewtonOptions):
     from jaxwalk.batching import over_rows
@@ -444,6 +478,6 @@ def _attractor_program(model: Walker, settings: AttractorOptions, solver: Solver
                     stats=GaitStats(*(jnp.zeros((), jnp.int32),) * 3))
         return find_attractor(model, p, gait, settings, solver, newton)
 
-    program = jax.jit(over_rows(one, model.lockstep_batch))
+    program = jax.jit(over_rows(one, min(model.lockstep_batch, WALK_SUB_BATCH)))
     program_cache.register(program, "attractor", model, solver, newton, settings)
     return program
