@@ -151,15 +151,24 @@ class Transition(NamedTuple):
 CALL_ROWS = 4096
 
 
+#: Steps one worker thread advances together: the engine's sub-batch size, but
+#: at least this many. A walker whose gait searches run one at a time (the
+#: flat-foot walker's ``lockstep_batch`` is 1: configurations far apart wait for
+#: each other at every phase) still batches a chain's steps, which all start near
+#: one gait and pass the same phases and events together. Measured on 1,024 steps
+#: from the shoe gait's neighbourhood: 18.4 ms per step one at a time, 11.1 ms
+#: sixteen at a time, 10.7 ms 64 at a time (benchmarks/bench_mfpt_steps.py). Not
+#: more: a failing step (a fall, a timeout) holds up its own sub-batch.
+MIN_STEP_SUB_BATCH = 16
+
+
 @functools.lru_cache(maxsize=None)
 def _step_program(model: Walker, solver: SolverOptions):
-    # Sub-batches of the engine's sub-batch size: a failing step (a fall, a
-    # timeout) costs many normal ones, and holds up only its own sub-batch.
     def one(p, t: Transition):
         v_next, res = step_map(model, t.v, p, solver, ground_drop=t.drop)
         return v_next, res.status
 
-    program = jax.jit(over_rows(one, sub_batch_size(model, solver)))
+    program = jax.jit(over_rows(one, max(sub_batch_size(model, solver), MIN_STEP_SUB_BATCH)))
     program_cache.register(program, "mfpt_transitions", model, solver)
     return program
 
