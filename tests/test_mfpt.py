@@ -65,6 +65,14 @@ def test_flat_ground_never_falls():
     assert mc.censored == 8 and np.all(mc.steps == 30)
 
 
+def test_terrain_too_gentle_to_fail_gives_inf_not_rounding_noise():
+    """At sigma 1e-7 no sampled step of the simplest walker fails: Q is stochastic and
+    I - Q singular, so the solve's t is noise (of either sign); the MFPT is inf."""
+    model, params, v = _gait("simplest")
+    result = mfpt(model, params, v, MFPTOptions(sigma=1e-7, mesh=9, samples=16, span=5.0))
+    assert result.mfpt == np.inf and result.quasi_stationary == np.inf and result.error == 0.0
+
+
 def test_mfpt_is_reproducible():
     """ARPACK starts from a fixed vector (its default is random): the same chain, the same numbers bit for bit."""
     model, params, v = _gait("simplest")

@@ -96,7 +96,8 @@ def _mfpt_attrs(resolved: Mapping[str, Any], units: Mapping[str, str]) -> dict[s
     return {
         "comment": (
             f"every step's ground height change i.i.d. N(0, {m['sigma']:g}^2) {units['length']}; discretised "
-            "step-to-step Markov chain with an absorbing failure state (jaxwalk.global_stability.mfpt); inf for sigma = 0"
+            "step-to-step Markov chain with an absorbing failure state (jaxwalk.global_stability.mfpt); "
+            "inf for sigma = 0 and where its failure rate per step is below 1e-10"
         ),
         **{f"mfpt_{k}": v for k, v in m.items()},
     }

@@ -37,7 +37,9 @@ coarser mesh and terrain grid (``(mesh + 1) // 2`` points per axis, half the
 samples); ``error = |t - t_coarse|``, the error of the coarse chain, an upper
 bound on the fine chain's error where refinement converges at first order or
 faster (checked against Monte Carlo in ``tests/test_global_stability.py``).
-``sigma = 0``: the walker never falls, ``inf``.
+``sigma = 0``: the walker never falls, ``inf``; so too where no sampled step
+of the chain fails, or the chain's failure rate per step is below
+:data:`UNRESOLVED_FAILURE_RATE` (beyond what it resolves).
 """
 
 from __future__ import annotations
@@ -206,6 +208,14 @@ def _transitions(mesh: Mesh, v_next: np.ndarray, ok: np.ndarray, weights: np.nda
     return q, escaped
 
 
+#: A chain whose failure rate per step, ``1 - lambda_d``, is below this gives
+#: ``mfpt = inf``: more than 1e10 expected steps is beyond what the chain
+#: resolves (its terrain samples end at 5 sigma, whose tail holds 6e-7 of the
+#: mass), and at ``1 - lambda_d`` near machine precision the solve for ``t``
+#: returns rounding noise of either sign (seen: -5.7e16).
+UNRESOLVED_FAILURE_RATE = 1e-10
+
+
 def _chain(model: Walker, params, lin_J, lin_B, v_star, options: MFPTOptions, points: int, samples: int, solver):
     """``(t at the gait, quasi-stationary MFPT, escaped, n_states)`` of one mesh."""
     mesh = principal_mesh(lin_J, lin_B, v_star, options, points)
@@ -221,9 +231,13 @@ def _chain(model: Walker, params, lin_J, lin_B, v_star, options: MFPTOptions, po
     start = np.argmin(np.linalg.norm(states - v_star, axis=-1))
     t_gait = float(t[start]) if np.linalg.norm(states[start] - v_star) < 1e-12 else _interpolate(mesh, t, v_star)
     lam, pi = _dominant_eigenvalue(q)
+    if 1.0 - lam < UNRESOLVED_FAILURE_RATE:
+        # I - Q is singular to working precision (no sampled step fails: Q is
+        # stochastic), and the solve's t is rounding noise, of either sign.
+        t_gait, lam = np.inf, 1.0
     # Escape weighted by the quasi-stationary distribution: the box's corners,
     # which a non-normal J maps far outside, are rarely visited.
-    return t_gait, 1.0 / (1.0 - lam), float(pi @ escaped), n
+    return t_gait, (np.inf if lam >= 1.0 else 1.0 / (1.0 - lam)), float(pi @ escaped), n
 
 
 def _interpolate(mesh: Mesh, values: np.ndarray, v: np.ndarray) -> float:
@@ -253,4 +267,5 @@ def mfpt(model: Walker, params, v_star, options: MFPTOptions, solver: SolverOpti
     J, B = np.asarray(lin.J), np.asarray(lin.B)
     fine = _chain(model, p, J, B, v_star, options, options.mesh, options.samples, solver)
     coarse = _chain(model, p, J, B, v_star, options, (options.mesh + 1) // 2, max(2, options.samples // 2), solver)
-    return MFPTResult(fine[0], abs(fine[0] - coarse[0]), fine[1], fine[2], fine[3])
+    error = 0.0 if fine[0] == coarse[0] == np.inf else abs(fine[0] - coarse[0])
+    return MFPTResult(fine[0], error, fine[1], fine[2], fine[3])
