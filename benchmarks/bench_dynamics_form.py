@@ -33,6 +33,7 @@ import jaxwalk  # noqa: E402,F401 (its import sets the cache and EQX_ON_ERROR)
 from jaxwalk import mechanics  # noqa: E402
 from jaxwalk.gait import find_gait  # noqa: E402
 from jaxwalk.models import get_model  # noqa: E402
+from _walkers import benchmark_params  # noqa: E402
 from _record import write_stamped  # noqa: E402
 
 SPREAD = {"flatfoot": ("r", 0.39, 0.43), "simplest": ("gamma", 0.004, 0.014), "compass": ("gamma", 0.02, 0.06),
@@ -42,7 +43,7 @@ FORMS = {"entrywise": 10**9, "stacked": 0}
 
 def batch(model, n: int) -> dict:
     name, lo, hi = SPREAD[model.name]
-    params = {k: jnp.full(n, float(v), jnp.float64) for k, v in model.default_params().items()}
+    params = {k: jnp.full(n, float(v), jnp.float64) for k, v in benchmark_params(model).items()}
     params[name] = jnp.asarray(np.linspace(lo, hi, n) if n > 1 else [0.5 * (lo + hi)])
     return params
 

@@ -32,6 +32,7 @@ import jax.numpy as jnp  # noqa: E402
 import jaxwalk  # noqa: E402
 from jaxwalk.gait import find_gait  # noqa: E402
 from jaxwalk.models import get_model  # noqa: E402
+from _walkers import benchmark_params  # noqa: E402
 from jaxwalk.step import SolverOptions  # noqa: E402
 from _record import machine, time_compiled, write_result  # noqa: E402
 
@@ -40,7 +41,7 @@ SPREAD = {"flatfoot": ("r", 0.38, 0.42), "simplest": ("gamma", 0.004, 0.014), "c
 
 def batch_params(model, n: int) -> dict:
     name, lo, hi = SPREAD[model.name]
-    params = {k: jnp.full((n,), v, jnp.float64) for k, v in model.default_params().items()}
+    params = {k: jnp.full((n,), v, jnp.float64) for k, v in benchmark_params(model).items()}
     params[name] = jnp.linspace(lo, hi, n) if n > 1 else jnp.full((1,), 0.5 * (lo + hi))
     return params
 

@@ -30,6 +30,7 @@ import jaxwalk  # noqa: E402
 from jaxwalk import lines as L  # noqa: E402
 from jaxwalk.grid import AnalysisOptions, analyse_grid  # noqa: E402
 from jaxwalk.models import get_model  # noqa: E402
+from jaxwalk.models.flatfoot.model import PAPER_PARAMS  # noqa: E402
 
 
 def main() -> None:
@@ -44,7 +45,7 @@ def main() -> None:
     def run(with_fill: bool) -> tuple[dict, float]:
         L.fill_from_neighbours = fill if with_fill else (lambda model, lines, gaits, program, chunk_size: gaits)
         t0 = time.perf_counter()
-        out = analyse_grid(model, {}, grid, "r", options)
+        out = analyse_grid(model, PAPER_PARAMS, grid, "r", options)
         return out, time.perf_counter() - t0
 
     run(True)  # compile

@@ -43,6 +43,7 @@ import jaxwalk  # noqa: E402
 from jaxwalk.gait import find_gait  # noqa: E402
 from jaxwalk.grid import AnalysisOptions, analyse_grid  # noqa: E402
 from jaxwalk.models import get_model  # noqa: E402
+from _walkers import benchmark_params  # noqa: E402
 from jaxwalk.step import step_map  # noqa: E402
 from _record import time_compiled  # noqa: E402
 
@@ -52,7 +53,7 @@ MODEL = get_model("flatfoot")
 
 def batch_params(n: int) -> dict:
     """``n`` configs: the defaults with ``r`` spread over :data:`R_RANGE`."""
-    params = {k: jnp.full((n,), v, jnp.float64) for k, v in MODEL.default_params().items()}
+    params = {k: jnp.full((n,), v, jnp.float64) for k, v in benchmark_params(MODEL).items()}
     params["r"] = jnp.linspace(*R_RANGE, n) if n > 1 else jnp.full((1,), 0.4)
     return params
 

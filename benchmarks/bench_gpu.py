@@ -32,6 +32,7 @@ import jax.numpy as jnp  # noqa: E402
 import jaxwalk  # noqa: E402
 from jaxwalk.gait import find_gait  # noqa: E402
 from jaxwalk.models import get_model  # noqa: E402
+from _walkers import benchmark_params  # noqa: E402
 from jaxwalk.step import SolverOptions  # noqa: E402
 from _record import machine, write_result  # noqa: E402
 
@@ -43,7 +44,7 @@ def grid_params(n: int) -> dict:
     """About ``n`` configs on an (l_f, r) grid, flattened (exactly ``side_f * side_r``)."""
     side = int(np.ceil(np.sqrt(n)))
     l_f, r = np.meshgrid(np.linspace(0.16, 0.28, side), np.linspace(0.2, 0.6, -(-n // side)), indexing="ij")
-    params = {k: np.full(l_f.size, float(v)) for k, v in MODEL.default_params().items()}
+    params = {k: np.full(l_f.size, float(v)) for k, v in benchmark_params(MODEL).items()}
     params["l_f"], params["r"] = l_f.ravel(), r.ravel()
     return params
 

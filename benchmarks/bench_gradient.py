@@ -41,6 +41,7 @@ import jax.numpy as jnp  # noqa: E402
 import jaxwalk  # noqa: E402,F401  (float64)
 from jaxwalk.gait import NewtonOptions, find_gait  # noqa: E402
 from jaxwalk.models import get_model  # noqa: E402
+from _walkers import benchmark_params  # noqa: E402
 from jaxwalk.optimize.engine import sensitivity_program  # noqa: E402
 from jaxwalk.step import SolverOptions  # noqa: E402
 
@@ -50,7 +51,7 @@ SPREAD = {"simplest": ("gamma", 0.004), "compass": ("gamma", 0.01), "flatfoot": 
 
 def batch(model, n: int):
     name, half = SPREAD[model.name]
-    d = model.default_params()
+    d = benchmark_params(model)
     params = {k: jnp.full((n,), v) for k, v in d.items()}
     params[name] = jnp.asarray(d[name] + np.linspace(-half, half, n))
     return params, jax.vmap(model.initial_guess)(params)

@@ -46,6 +46,7 @@ import jaxwalk  # noqa: E402,F401 (its import sets the cache and EQX_ON_ERROR)
 from jaxwalk import gait, sensitivity, step  # noqa: E402
 from jaxwalk.gait import NewtonOptions  # noqa: E402
 from jaxwalk.models import get_model  # noqa: E402
+from _walkers import benchmark_params  # noqa: E402
 from jaxwalk.step import SolverOptions  # noqa: E402
 from _record import write_stamped  # noqa: E402
 
@@ -105,7 +106,7 @@ def run_variant(model_name: str, n: int, variant: str, out_path: str) -> None:
     """One variant in this process: its times and outputs pickled to ``out_path``."""
     model = get_model(model_name)
     name, lo, hi = SPREAD[model_name]
-    params = {k: jnp.full(n, float(v), jnp.float64) for k, v in model.default_params().items()}
+    params = {k: jnp.full(n, float(v), jnp.float64) for k, v in benchmark_params(model).items()}
     params[name] = jnp.asarray(np.linspace(lo, hi, n))
     one = {k: v[0] for k, v in params.items()}
     with (unjitted if variant == "unjitted" else contextlib.nullcontext)():

@@ -11,9 +11,10 @@ import sys, time, os
 import jax, jax.numpy as jnp
 jax.config.update("jax_enable_x64", True)
 from jaxwalk.models import get_model
+from _walkers import benchmark_params
 from jaxwalk.step import step_map, SolverOptions
 M = get_model("flatfoot")
-p = M.default_params()
+p = benchmark_params(M)
 v = M.initial_guess(p)
 engine = sys.argv[1] if len(sys.argv) > 1 else "nested"
 jvp = "jvp" in sys.argv

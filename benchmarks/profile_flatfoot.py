@@ -37,6 +37,7 @@ import jax.numpy as jnp  # noqa: E402
 from jaxwalk import flatstep, mechanics  # noqa: E402
 from jaxwalk.gait import find_gait  # noqa: E402
 from jaxwalk.models import get_model  # noqa: E402
+from _walkers import benchmark_params  # noqa: E402
 from jaxwalk.status import Status  # noqa: E402
 from jaxwalk.step import SolverOptions  # noqa: E402
 from _record import write_result  # noqa: E402
@@ -47,7 +48,7 @@ BATCH = 64
 
 
 def _start():
-    p = MODEL.default_params()
+    p = benchmark_params(MODEL)
     y, phase, ctx = MODEL.section_to_state(MODEL.initial_guess(p), p)
     return p, y, phase, ctx
 
@@ -121,7 +122,7 @@ def profile_pieces() -> dict:
 
 def profile_rtol() -> dict:
     tols = jnp.array([1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12])
-    p = MODEL.default_params()
+    p = benchmark_params(MODEL)
 
     def gait(tol):
         opts = SolverOptions(engine="flat", rtol=tol, atol=tol)  # traced tolerances: one program for all

@@ -11,9 +11,12 @@ import jax
 import jax.numpy as jnp
 
 from jaxwalk.models import get_model
+from jaxwalk.models.flatfoot.model import PAPER_PARAMS
 from jaxwalk.step import step_map
 
 MODEL = get_model("flatfoot")
+#: ``[params]`` lines of a sweep config for the paper's walker (``PAPER_PARAMS``).
+PAPER_TOML = "\n".join(f"{name} = {value!r}" for name, value in PAPER_PARAMS.items())
 LEVEL = jnp.zeros((), jnp.float64)
 NO_TANGENT = jnp.zeros(2, jnp.float64)
 

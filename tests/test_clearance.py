@@ -12,10 +12,14 @@ import xarray as xr
 from jaxwalk.sweep import ConfigError, loads_config, parse_config, run_sweep
 from jaxwalk.sweep.runner import analysis_options
 from tests.conftest import COMPASS_2D
+from tests.flatfoot_program import PAPER_TOML
 
-FLATFOOT_1 = """
+FLATFOOT_1 = f"""
 name = "flatfoot_clearance"
 model = "flatfoot"
+[params]
+{PAPER_TOML}
+""" + """
 [grid]
 gamma = { values = [0.0] }
 [analysis]
@@ -44,7 +48,7 @@ def test_min_clearance_is_resolved_and_recorded_only_when_on():
 
 @pytest.fixture(scope="module")
 def sweep(tmp_path_factory):
-    """One flat-foot gait (the nominal one, level ground) swept with min_clearance."""
+    """One gait of the paper's flat-foot walker (level ground) swept with min_clearance."""
     path = run_sweep(loads_config(FLATFOOT_1), tmp_path_factory.mktemp("clearance"), progress=False, plot=False)
     with xr.open_dataset(path, engine="zarr") as ds:
         return ds.load()
@@ -59,6 +63,6 @@ def test_min_clearance_is_a_variable_of_the_flatfoot_sweep(sweep):
     assert clearance.dims == ("gamma",) and clearance.dtype == np.float64
     assert clearance.attrs["long_name"] == "minimum swing clearance" and clearance.attrs["units"] == "1"
     assert int(sweep["status"][0]) == 0
-    # The nominal gait (scuff_tol = 0.03) dips below the ground by less than the
+    # The paper's walker's gait (scuff_tol = 0.03) dips below the ground by less than the
     # scuffing tolerance (tests/test_flatfoot.py measures it against the recorded step).
     assert -0.03 < float(clearance[0]) < 0.0

@@ -6,6 +6,11 @@ drop an input, so the step-down test walks with it too) and the engine's
 recorder; the batched step-down search is the one other flat-foot program here.
 Parameters passed to them keep the defaults' dtypes (a weak-typed ``0.0`` in
 place of a float64 array is another signature: one more compile of minutes).
+
+The walker here is the paper's (``PAPER_PARAMS``: constant hip torque, floor
+penetration tolerated), the one the SciPy reference and the published figures
+describe; the shoe walker of the defaults and the other documented gaits are
+held step by step against the same reference in tests/test_flatfoot_gaits.py.
 """
 
 from __future__ import annotations
@@ -22,7 +27,7 @@ from jaxwalk.models.flatfoot import events as ev
 from jaxwalk.models.flatfoot import forces as fo
 from jaxwalk.models.flatfoot import geometry as geo
 from jaxwalk.models.flatfoot import phases as ph
-from jaxwalk.models.flatfoot.model import HIP_SPRING_PARAMS
+from jaxwalk.models.flatfoot.model import HIP_SPRING_PARAMS, PAPER_PARAMS, SHOE_PARAMS
 from jaxwalk.simulate import AFTER_EVENT, BEFORE_EVENT, record_walk
 from jaxwalk.status import Status
 from jaxwalk.stepdown import StepDownOptions, h_max
@@ -60,7 +65,7 @@ PAPER_PHASE_OF_EVENT = {
 
 @pytest.fixture(scope="module")
 def params():
-    return MODEL.default_params()
+    return _with(MODEL.default_params(), **PAPER_PARAMS)
 
 
 @pytest.fixture(scope="module")
@@ -176,13 +181,20 @@ def scipy_gait():
     return ref.gait()
 
 
-def test_scipy_reference_has_the_model_defaults_and_guess(params):
+def test_scipy_reference_has_the_paper_walker_and_guess(params):
     from tests.reference import flatfoot as ref
 
-    assert set(ref.DEFAULTS) == set(params)
-    for name, value in ref.DEFAULTS.items():
+    assert set(ref.PAPER) == set(params)
+    for name, value in ref.PAPER.items():
         assert float(params[name]) == value, name
-    np.testing.assert_array_equal(np.asarray(MODEL.initial_guess(params)), np.asarray(ref.NOMINAL_GUESS))
+    np.testing.assert_array_equal(np.asarray(MODEL.initial_guess(params)), np.asarray(ref.PAPER_GUESS))
+
+
+def test_defaults_are_the_shoe_walker():
+    """The defaults differ from the paper's walker exactly in the walker options, which are the shoe gait's."""
+    defaults = MODEL.default_params()
+    assert set(PAPER_PARAMS) == set(SHOE_PARAMS) and set(PAPER_PARAMS) <= set(defaults)
+    assert {k: float(defaults[k]) for k in SHOE_PARAMS} == SHOE_PARAMS
 
 
 def test_gait_matches_the_independent_scipy_walker(params, step_fn, fixed_point, scipy_gait):

@@ -20,14 +20,17 @@ import xarray as xr
 
 from jaxwalk.status import Status
 from jaxwalk.sweep import loads_config, run_sweep
+from tests.flatfoot_program import PAPER_TOML
 from tests.reference.flatfoot.params import params as reference_params
 from tests.reference.flatfoot.step import step_map as reference_step_map
 
-ATTRACTOR_SWEEP = """
+ATTRACTOR_SWEEP = f"""
 name = "flatfoot_period_two"
 model = "flatfoot"
 [params]
 l_f = 0.22
+{PAPER_TOML}
+""" + """
 [grid]
 r = { values = [0.47] }
 [analysis]

@@ -1,6 +1,7 @@
 """Issue 14: the documented gaits of the flat-foot walker that walk with no floor
 penetration (docs/model.md, "The hip-spring gait", "The push-off gait", "The
-swing-hip gait" and "The shoe gait"), each found by Newton from its stored guess,
+swing-hip gait" and "The shoe gait", the gait of the defaults), each found by
+Newton from its stored guess,
 and each step held against the SciPy reference walker (tests/reference/flatfoot),
 which has the hip spring, the push-off and heel-brake torques and the hip's share
 in double support written again by hand."""

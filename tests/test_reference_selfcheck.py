@@ -301,7 +301,7 @@ def test_flatfoot_reference_conserves_energy_minus_actuator_work_in_every_phase(
     from tests.reference.flatfoot.step import solve_phase
 
     p = ff.params(**option)
-    y, phase, ctx = ff.section_to_state(ff.NOMINAL_GUESS, p)
+    y, phase, ctx = ff.section_to_state(ff.PAPER_GUESS, p)
     t, visited = 0.0, []
     while True:
         status, name, t_ev, y_ev, _ = solve_phase(t, y, p, phase, ctx)

@@ -26,6 +26,7 @@ import pytest
 from jaxwalk.gait import NewtonOptions
 from jaxwalk.grid import analyse_grid
 from jaxwalk.models import get_model
+from jaxwalk.models.flatfoot.model import PAPER_PARAMS
 from jaxwalk.optimize.engine import sensitivity_program
 from jaxwalk.sensitivity import spectral_radius
 from jaxwalk.status import Status
@@ -163,7 +164,7 @@ def test_simplest_optimum_confirmed_by_a_fine_grid():
     "(benchmarks/README.md); set JAXWALK_FLATFOOT_GRADIENT=1 to run",
 )
 def test_flatfoot_lambda_max_fixed_point_and_cost_of_transport():
-    """The flat-foot walker at its defaults: d/dr of lambda_max, v* and the cost of
+    """The paper's flat-foot walker: d/dr of lambda_max, v* and the cost of
     transport against central differences of converged gaits (one device:
     batched LAPACK from two device threads has deadlocked for this walker).
 
@@ -175,7 +176,7 @@ def test_flatfoot_lambda_max_fixed_point_and_cost_of_transport():
     1.6e-3 relative), above it the truncation error. Forward mode's d lambda_max/dr
     6.93939 against 6.93992 (h = 1e-3) and 6.93917 (h = 3e-4)."""
     model = get_model("flatfoot")
-    d = model.default_params()
+    d = {**model.default_params(), **PAPER_PARAMS}  # the paper's walker, where the step h was chosen
     h = 1e-3
     # Four configurations, like the four foot lengths of results/optimize: one compiled program.
     r = d["r"] + np.array([0.0, -h, h, 0.0])

@@ -18,7 +18,8 @@ too). The kneed walkers' took 1.5 to 5 minutes on this 2-core machine, the
 flat-foot walker's longer; their gaits from the guess are tested where those
 programs are compiled anyway: ``tests/test_kneed.py`` (``gait``: Newton from
 ``initial_guess``; ``kneed_stop``'s defaults buckle there), and
-``tests/test_flatfoot.py`` (``fixed_point``, ``test_nominal_gait_is_a_stable_fixed_point``).
+``tests/test_flatfoot_gaits.py`` (the shoe gait of the flat-foot walker's defaults,
+Newton from ``initial_guess``).
 """
 
 from __future__ import annotations

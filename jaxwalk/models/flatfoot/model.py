@@ -27,17 +27,26 @@ from jaxwalk.models.flatfoot import phases as ph
 from jaxwalk.parameters import ParamSpec, nonnegative, positive
 from jaxwalk.walker import Walker
 
-#: The nominal gait of the defaults, ``(psi, psi_dot)`` (docs/model.md, "Defaults and the nominal gait").
-NOMINAL_GAIT = (0.16327572732, -0.186444529299)
-#: Parameters (changes from the defaults) of the admissible hip-spring gait: a hip
+#: The paper's walker: the walker options at the paper's values (constant hip
+#: torque only, the knee locking at once, the swing foot perpendicular to the
+#: shank, a floor penetration of up to 0.03 L tolerated, unbounded friction).
+#: These were the defaults until the shoe walker replaced them (docs/model.md,
+#: "Defaults and the paper's walker"); every preset below is absolute over these keys.
+PAPER_PARAMS = {
+    "P": 0.0076, "k_hip": 0.0, "ankle_push": 0.0, "heel_brake": 0.0, "hip_double_support": 1.0,
+    "swing_dorsi": 0.0, "knee_gate": 0.0, "scuff_tol": 0.03, "mu": 1e6,
+}  # fmt: skip
+#: Its gait ``(psi, psi_dot)`` at the other defaults (docs/model.md, "The paper's walker").
+PAPER_GAIT = (0.16327572732, -0.186444529299)
+#: Parameters of the admissible hip-spring gait: a hip
 #: spring and more hip torque swing the leg faster, so the knee is still flexed as
 #: the swing foot passes the stance foot; the swing foot is turned toe-up so it
 #: clears the ground at toe-off; no floor penetration is tolerated (docs/model.md,
 #: "The hip-spring gait").
-HIP_SPRING_PARAMS = {"k_hip": 0.125, "P": 0.0566, "swing_dorsi": 0.1, "knee_gate": 1.0, "scuff_tol": 0.0}
+HIP_SPRING_PARAMS = {**PAPER_PARAMS, "k_hip": 0.125, "P": 0.0566, "swing_dorsi": 0.1, "knee_gate": 1.0, "scuff_tol": 0.0}
 #: Its fixed point ``(psi, psi_dot)``.
 HIP_SPRING_GAIT = (0.16811061518, -0.24466430626)
-#: Parameters (changes from the defaults) of the push-off gait, the human-like
+#: Parameters of the push-off gait, the human-like
 #: regime of issue 14: the hip-spring walker with an ankle push-off torque in
 #: double support, a stiffer hip spring and less hip torque, at Froude number
 #: about 0.1-0.15 (docs/model.md, "The push-off gait").
@@ -51,11 +60,11 @@ PUSH_OFF_GAIT = (0.276956094048, -0.394675360412)
 SWING_HIP_PARAMS = {**PUSH_OFF_PARAMS, "hip_double_support": 0.5, "heel_brake": 0.01}
 #: Its fixed point ``(psi, psi_dot)``.
 SWING_HIP_GAIT = (0.307231367500, -0.390491088404)
-#: Parameters of the shoe gait: the swing-hip walker with a softer hip spring and
-#: more hip torque, walking with a shoe's friction coefficient (mu = 0.8) checked
-#: at every contact (docs/model.md, "The shoe gait").
+#: Parameters of the shoe gait, the model's defaults: the swing-hip walker with a
+#: softer hip spring and more hip torque, walking with a shoe's friction
+#: coefficient (mu = 0.8) checked at every contact (docs/model.md, "The shoe gait").
 SHOE_PARAMS = {**SWING_HIP_PARAMS, "k_hip": 0.12, "P": 0.045, "mu": 0.8}
-#: Its fixed point ``(psi, psi_dot)``.
+#: Its fixed point ``(psi, psi_dot)``, the gait of the defaults.
 SHOE_GAIT = (0.324519973953, -0.373398980250)
 
 #: Rows that hold at the start of a step (push-off), used to build the section's velocity.
@@ -65,6 +74,7 @@ _SECTION_ROWS = (ph.ANKLE_1_X, ph.ANKLE_1_Y, ph.KNEE_1, ph.KNEE_2, ph.TOE_2)
 class FlatFootWalker(Walker):
     name = "flatfoot"
     description = "flat-foot walker with knees, ankle springs and hip torque, Wang, Wei, Wang & Lv"
+    # The defaults are the shoe walker's (SHOE_PARAMS); PAPER_PARAMS gives the paper's.
     parameters = (
         ParamSpec("gamma", 0.0, "rad", "slope angle (downhill positive)", lower=-0.5, upper=0.5),
         positive("m_h", 0.678, "1", "hip and upper-body point mass"),
@@ -78,19 +88,19 @@ class FlatFootWalker(Walker):
         positive("l_f", 0.22, "1", "foot length, heel to toe"),
         positive("r", 0.4, "1", "foot ratio, (heel to ankle) / (ankle to toe)"),
         nonnegative("k", 0.03, "1", "ankle spring stiffness"),
-        ParamSpec("P", 0.0076, "1", "hip torque, + on the swing thigh, - on the stance thigh"),
-        nonnegative("k_hip", 0.0, "1", "hip spring stiffness between the thighs (M g L per rad), relaxed with the thighs together"),
-        nonnegative("ankle_push", 0.0, "1", "push-off torque at the trailing ankle while its foot pivots on its toe (M g L), toe-down on the foot"),
-        nonnegative("heel_brake", 0.0, "1", "dorsiflexor torque at the landing ankle while its foot pivots on its heel (M g L), resisting the foot's fall to flat"),
-        ParamSpec("hip_double_support", 1.0, "1", "fraction of the hip torque and hip spring acting while both feet touch the ground (0: the hip drives the swing leg only)", lower=0.0, upper=1.0),
+        ParamSpec("P", 0.045, "1", "hip torque, + on the swing thigh, - on the stance thigh"),
+        nonnegative("k_hip", 0.12, "1", "hip spring stiffness between the thighs (M g L per rad), relaxed with the thighs together"),
+        nonnegative("ankle_push", 0.09, "1", "push-off torque at the trailing ankle while its foot pivots on its toe (M g L), toe-down on the foot"),
+        nonnegative("heel_brake", 0.01, "1", "dorsiflexor torque at the landing ankle while its foot pivots on its heel (M g L), resisting the foot's fall to flat"),
+        ParamSpec("hip_double_support", 0.5, "1", "fraction of the hip torque and hip spring acting while both feet touch the ground (0: the hip drives the swing leg only)", lower=0.0, upper=1.0),
         nonnegative("delay", 0.066, "1", "knee-unlock delay after toe-strike"),
         ParamSpec("knee_lock", 0.2, "rad", "knee flexion at the extension stop, where a knee locks", lower=0.0, upper=0.5),
-        nonnegative("scuff_tol", 0.03, "1", "allowed depth of the swing foot below ground"),
+        nonnegative("scuff_tol", 0.0, "1", "allowed depth of the swing foot below ground"),
         ParamSpec("rho_t", 0.0, "1", "thigh radius of gyration about its centre of mass, fraction of l_t", lower=0.0, upper=0.5),
         ParamSpec("rho_s", 0.0, "1", "shank radius of gyration about its centre of mass, fraction of l_s", lower=0.0, upper=0.5),
-        ParamSpec("knee_gate", 0.0, "1", "1: the swing knee latches only after its ankle passes the stance ankle (the paper's gate); 0: at once", lower=0.0, upper=1.0),
-        ParamSpec("swing_dorsi", 0.0, "rad", "swing foot turned toe-up from perpendicular to the shank", lower=-0.5, upper=0.5),
-        positive("mu", 1e6, "1", "friction coefficient at every ground contact"),
+        ParamSpec("knee_gate", 1.0, "1", "1: the swing knee latches only after its ankle passes the stance ankle (the paper's gate); 0: at once", lower=0.0, upper=1.0),
+        ParamSpec("swing_dorsi", 0.1, "rad", "swing foot turned toe-up from perpendicular to the shank", lower=-0.5, upper=0.5),
+        positive("mu", 0.8, "1", "friction coefficient at every ground contact"),
         # A contact impulse pulls (or slides) when it is more tensile (or further
         # outside the friction cone) than this fraction of the impact's largest
         # normal impulse: the check scales with the impacts that occur (a fixed
@@ -172,16 +182,17 @@ class FlatFootWalker(Walker):
         """The documented gait nearest ``params`` in push-off torque, then in the hip's
         share in double support, then in hip-spring stiffness (docs/model.md).
 
-        Five gaits are documented: the nominal one of the defaults (no hip spring;
-        to 3e-8, its step-map residual 1.3e-8 at the default tolerances, and the
-        SciPy walker in tests/reference/flatfoot agrees with the polished point to
-        1.6e-8); the hip-spring gait of :data:`HIP_SPRING_PARAMS`, which walks
+        Five gaits are documented: the paper's walker's of :data:`PAPER_PARAMS` (no
+        hip spring; to 3e-8, its step-map residual 1.3e-8 at the default
+        tolerances, and the SciPy walker in tests/reference/flatfoot agrees with
+        the polished point to 1.6e-8); the hip-spring gait of :data:`HIP_SPRING_PARAMS`, which walks
         with the swing foot above the ground all swing; the push-off gait of
         :data:`PUSH_OFF_PARAMS`, which does so at a human Froude number; and the
         swing-hip gait of :data:`SWING_HIP_PARAMS`, whose stance foot and landing
         heel need friction coefficients of 0.28 and 0.24 where the push-off gait's
         need 1.11 and 3.1; where also ``mu <= 1``, the shoe gait of
-        :data:`SHOE_PARAMS`, which walks with ``mu = 0.8`` at every contact.
+        :data:`SHOE_PARAMS`, which walks with ``mu = 0.8`` at every contact: the
+        gait of the defaults.
         """
         push_off = params["ankle_push"] >= 0.5 * PUSH_OFF_PARAMS["ankle_push"]
         swing_hip = params["hip_double_support"] <= 0.75
@@ -191,7 +202,7 @@ class FlatFootWalker(Walker):
         return jnp.where(
             push_off,
             jnp.where(swing_hip, swing_hip_gait, jnp.array(PUSH_OFF_GAIT)),
-            jnp.where(hip_spring, jnp.array(HIP_SPRING_GAIT), jnp.array(NOMINAL_GAIT)),
+            jnp.where(hip_spring, jnp.array(HIP_SPRING_GAIT), jnp.array(PAPER_GAIT)),
         )
 
     # ------------------------------------------------------------ extras

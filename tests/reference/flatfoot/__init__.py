@@ -9,7 +9,7 @@ atol=1e-10)`` with terminal events, and the gait is Newton-Raphson on a
 central-difference Jacobian (the seed paper's method). It checks the JAX model
 (tests/test_flatfoot.py) and is the baseline of benchmarks/scipy_baseline.py.
 
-Modules, one concept each: ``params`` (defaults, indices, the stored guess),
+Modules, one concept each: ``params`` (the paper walker's parameters, indices, the stored guess),
 ``kinematics`` (points, Jacobians, mass matrix), ``constraints`` (rows,
 ``Sigma``, ``Psi``, phase table), ``forces`` (springs, hip torque, ground
 reactions), ``dynamics`` (equations of motion, impacts, energy), ``guards``,
@@ -25,8 +25,8 @@ flexes, a failure guard already due, a heel pivot not toe-up, a trailing heel
 that would sink), the engine's start rule (a guard below -1e-9 when a phase
 starts is an event there), the impulse checks of the three impacts, heel-strike
 on a released knee or a rising heel, and the limits on phase time (12) and
-events (16). Left out or done differently, none of which changes a step at the
-defaults: the swing foot's height extrema (``heel_extremum``, ``toe_extremum``)
+events (16). Left out or done differently, none of which changes a step of the
+paper's walker: the swing foot's height extrema (``heel_extremum``, ``toe_extremum``)
 are non-terminal events here, not phase ends: they change no state, so the
 integration runs through them (the engine restarts its solver at each: the same
 trajectory to integration accuracy), and they still count towards the event
@@ -37,7 +37,7 @@ engine's own statuses have their counterparts: ``timeout``, ``solver_failed``,
 """
 
 from tests.reference.flatfoot.newton import gait
-from tests.reference.flatfoot.params import DEFAULTS, NOMINAL_GUESS, params
+from tests.reference.flatfoot.params import PAPER, PAPER_GUESS, params
 from tests.reference.flatfoot.step import run_step, section_to_state, state_to_section, step_map
 
-__all__ = ["DEFAULTS", "NOMINAL_GUESS", "params", "gait", "run_step", "section_to_state", "state_to_section", "step_map"]
+__all__ = ["PAPER", "PAPER_GUESS", "params", "gait", "run_step", "section_to_state", "state_to_section", "step_map"]

@@ -19,7 +19,7 @@ from typing import Mapping
 import numpy as np
 
 from tests.reference.fixed_points import FixedPointResult, fixed_point
-from tests.reference.flatfoot.params import NOMINAL_GUESS, params as default_params
+from tests.reference.flatfoot.params import PAPER_GUESS, params as paper_params
 from tests.reference.flatfoot.step import ATOL, RTOL, step_map
 
 #: Central-difference step of the Newton iterations and of the final (Richardson) Jacobian.
@@ -28,15 +28,15 @@ FD_STEP = 1e-5
 TOL = 1e-11
 
 
-def gait(p: Mapping[str, float] | None = None, v0=NOMINAL_GUESS, rtol: float = RTOL, atol: float = ATOL,
+def gait(p: Mapping[str, float] | None = None, v0=PAPER_GUESS, rtol: float = RTOL, atol: float = ATOL,
          fd_step: float = FD_STEP, richardson: bool = True, tol: float = TOL, max_iter: int = 20) -> FixedPointResult:
     """Fixed point ``v* = (psi, psi_dot)``, Jacobian ``dP/dv`` ``(2, 2)``, its eigenvalues
-    and ``lambda_max`` at parameters ``p`` (the defaults if ``None``).
+    and ``lambda_max`` at parameters ``p`` (the paper walker's, :data:`PAPER`, if ``None``).
 
     The result's ``status`` is ``"ok"`` or a failure name; ``step_info`` is the
     step at ``v*`` (:func:`tests.reference.flatfoot.step.run_step`'s dict: its
     ``time`` is the period, ``length`` the step length).
     """
-    p = default_params() if p is None else dict(p)
+    p = paper_params() if p is None else dict(p)
     return fixed_point(lambda v: step_map(v, p, rtol, atol), np.asarray(v0, float), tol=tol, max_iter=max_iter,
                        fd_step=fd_step, final_fd_step=fd_step, richardson=richardson)  # fmt: skip

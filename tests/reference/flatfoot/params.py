@@ -10,10 +10,10 @@ from __future__ import annotations
 import math
 from typing import Mapping
 
-#: The model's defaults, copied from the parameter table of docs/model.md
-#: ("Bodies" and "Defaults and the nominal gait"; the same numbers as
-#: ``FlatFootWalker.parameters``).
-DEFAULTS: dict[str, float] = {
+#: The paper's walker, every reference check's parameters, copied from the
+#: parameter table of docs/model.md ("Bodies" and "Defaults and the paper's
+#: walker": the model's defaults with the paper's walker options).
+PAPER: dict[str, float] = {
     "gamma": 0.0,
     "m_h": 0.678, "m_t": 0.100, "m_s": 0.0465, "m_f": 0.0145,
     "l_t": 0.5, "l_s": 0.5, "c_t": 0.433, "c_s": 0.433,
@@ -25,10 +25,10 @@ DEFAULTS: dict[str, float] = {
     "impulse_tol": 0.01, "stance_latch": 1.0,
 }  # fmt: skip
 
-#: Newton's start at the defaults: ``FlatFootWalker.initial_guess(default_params())``
+#: Newton's start for :data:`PAPER`: ``FlatFootWalker.initial_guess`` there
 #: (jaxwalk/models/flatfoot/model.py; also docs/model.md's fixed point v*),
 #: ``(psi, psi_dot)``: stance chord angle (rad) and its rate (rad per sqrt(L/g)).
-NOMINAL_GUESS = (0.16327572732, -0.186444529299)
+PAPER_GUESS = (0.16327572732, -0.186444529299)
 
 # Generalized coordinates q = (x_h, y_h, thigh_1, shank_1, thigh_2, shank_2).
 X_H, Y_H, THIGH_1, SHANK_1, THIGH_2, SHANK_2 = range(6)
@@ -47,11 +47,11 @@ FALL_HEIGHT, SEGMENT_LIMIT, FLEXION_LIMIT = 0.5, 1.5, 2.5
 
 
 def params(**overrides: float) -> dict[str, float]:
-    """The defaults with ``overrides``; an unknown name raises ``KeyError``."""
-    unknown = set(overrides) - set(DEFAULTS)
+    """:data:`PAPER` with ``overrides``; an unknown name raises ``KeyError``."""
+    unknown = set(overrides) - set(PAPER)
     if unknown:
         raise KeyError(f"unknown flat-foot parameters: {sorted(unknown)}")
-    out = dict(DEFAULTS)
+    out = dict(PAPER)
     out.update({k: float(v) for k, v in overrides.items()})
     return out
 

@@ -28,7 +28,7 @@ from tests.reference.flatfoot import guards as gd
 from tests.reference.flatfoot.dynamics import vector_field
 from tests.reference.flatfoot.forces import actuator_work
 from tests.reference.flatfoot.params import (
-    IN_AIR, LATCHED, N_Q, PUSH_OFF, THIGH_1, X_H, Y_H, chord, foot_arms, params as default_params,
+    IN_AIR, LATCHED, N_Q, PUSH_OFF, THIGH_1, X_H, Y_H, chord, foot_arms, params as paper_params,
 )  # fmt: skip
 from tests.reference.flatfoot.resets import on_event, settle
 
@@ -151,7 +151,7 @@ def run_step(y: np.ndarray, phase: int, ctx: dict, p: Mapping[str, float], rtol=
 
 def step_map(v, p: Mapping[str, float] | None = None, rtol=RTOL, atol=ATOL) -> tuple[np.ndarray, dict]:
     """The Poincaré map ``v -> (v_next, info)`` (``info``: :func:`run_step`'s dict; ``v_next`` NaN on failure)."""
-    p = default_params() if p is None else p
+    p = paper_params() if p is None else p
     y, phase, ctx = section_to_state(v, p)
     info = run_step(y, phase, ctx, p, rtol, atol)
     v_next = state_to_section(info["y"], p) if info["status"] == "ok" else np.full(2, math.nan)
