@@ -62,6 +62,9 @@ class Output:
             values, figures in ascending ``plot`` (stability measures first); ``None``: on request only.
         always: keeps its value where the status is not ``OK`` (``newton_iterations``:
             how hard Newton tried); otherwise it is :meth:`missing` there.
+        log_scale: figures draw it on a logarithmic scale where its values are
+            positive and span more than a decade (``mfpt``: 8 to 40,000 steps on
+            one line); written as the dataset attribute ``plot_scale = "log"``.
         attrs: further attributes: a mapping, or ``(resolved, units) -> mapping``
             for those that depend on the analysis's settings.
         source: the field of the analysis's own result it is read from (the
@@ -82,6 +85,7 @@ class Output:
     flags: bool = False
     plot: int | None = None
     always: bool = False
+    log_scale: bool = False
     attrs: Mapping[str, Any] | Attrs = dataclasses.field(default_factory=dict)
     source: str | None = None
 
@@ -195,6 +199,8 @@ def attributes(output: Output, resolved: Any, units: Mapping[str, str]) -> dict[
         attrs.update(flag_attributes())
     if output.units is not None:
         attrs["units"] = units_text(output, units)
+    if output.log_scale:
+        attrs["plot_scale"] = "log"
     extra = output.attrs(resolved, units) if callable(output.attrs) else output.attrs
     attrs.update(extra)
     if output.long_name:

@@ -394,3 +394,37 @@ def test_a_long_axis_label_wraps_without_breaking_its_units():
     assert len(lines) == 2 and all(len(line) <= AXIS_LABEL_WIDTH for line in lines)
     assert "(M\u00a0g\u00a0L)" in lines[1]
     assert axis_label(ds, "gamma") == "gamma: slope angle [rad]"
+
+
+def test_a_variable_that_asks_for_it_is_drawn_on_a_log_scale_where_it_spans_decades():
+    """``mfpt`` (8 to 40,000 steps on one line of the shoe walker) asks for a log scale
+    (``plot_scale = "log"``); it gets one only where every drawn value is positive and
+    they span more than a decade. Other variables stay linear."""
+    from matplotlib.colors import LogNorm, Normalize
+
+    from jaxwalk.analyses.global_stability import MFPT
+    from jaxwalk.outputs import attributes
+
+    resolved = {"mfpt": {"sigma": 0.005, "span": 3.0, "mesh": 15, "samples": 64, "max_axes": 3}}
+    attrs = attributes(MFPT[0], resolved, {"length": "1", "time": "1"})
+    assert attrs["plot_scale"] == "log" and "plot_scale" not in attributes(MFPT[3], resolved, {"length": "1", "time": "1"})
+
+    ds = synthetic(GRID_2D)
+    lam = ds["lambda_max"]
+    spans = {"decades": 10.0 ** (4.0 * (lam - lam.min()) / (lam.max() - lam.min())),  # 1 .. 1e4
+             "narrow": 100.0 + 300.0 * (lam - lam.min()) / (lam.max() - lam.min()),  # 100 .. 400
+             "with_zero": 1e4 * (lam - lam.min()) / (lam.max() - lam.min())}  # 0 .. 1e4
+    for name, values in spans.items():
+        ds[name] = values.assign_attrs(long_name=name, units="steps", plot_scale="log")
+    ds["unasked"] = spans["decades"].assign_attrs(long_name="unasked", units="steps")
+
+    def scales(name):
+        heat = heatmap_figure(ds, name, choose_layout(ds, "heatmap"))
+        norm = heat.axes[0].collections[0].norm
+        (bar,) = [a for a in heat.axes if a.get_label() == "<colorbar>"]
+        lines = lines_figure(ds, name, choose_layout(ds, "lines"))
+        return type(norm), "log scale" in bar.get_ylabel(), lines.axes[0].get_yscale()
+
+    assert scales("decades") == (LogNorm, True, "log")
+    for name in ("narrow", "with_zero", "unasked"):
+        assert scales(name) == (Normalize, False, "linear"), name

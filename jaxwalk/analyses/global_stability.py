@@ -111,11 +111,13 @@ GSN = Output(
 )
 MFPT = (
     Output("mfpt", "float64", "mean first-passage time: expected completed steps before a failure, from the gait",
-           units="steps", label="MFPT", meaning="mean steps before a fall on random terrain", plot=40, attrs=_mfpt_attrs),
+           units="steps", label="MFPT", meaning="mean steps before a fall on random terrain", plot=40, log_scale=True,
+           attrs=_mfpt_attrs),
     Output("mfpt_error", "float64",
-           "discretisation error estimate of mfpt: |mfpt - mfpt on a mesh and terrain grid half as fine|", units="steps"),
+           "discretisation error estimate of mfpt: |mfpt - mfpt on a mesh and terrain grid half as fine|", units="steps",
+           log_scale=True),
     Output("mfpt_quasi_stationary", "float64", "1 / (1 - lambda_d), lambda_d the chain's dominant eigenvalue (Byl & Tedrake)",
-           units="steps"),
+           units="steps", log_scale=True),
     Output("mfpt_escaped", "float64", "fraction of the chain's transition mass that left the mesh box (moved onto its surface)"),
 )
 

@@ -2,7 +2,8 @@
 
 Each panel draws, bottom to top:
 
-* the variable where a gait was found (status 0), on one viridis scale shared by all panels;
+* the variable where a gait was found (status 0), on one viridis scale shared by all panels
+  (logarithmic for a variable that asks for it, :mod:`jaxwalk.plot.scale`);
 * every failure region (status != 0) as a categorical overlay, one fixed colour
   per status (:mod:`jaxwalk.plot.statuses`), named in the legend with its count;
 * unstable gaits (status 0, ``lambda_max >= 1``) hatched, so a value map of
@@ -26,6 +27,7 @@ import xarray as xr
 from jaxwalk.plot import loci
 from jaxwalk.plot.labels import STABILITY_LIMIT, UNSTABLE, axis_label, figure_title, value_text, variable_label
 from jaxwalk.plot.layout import Layout, panel_views
+from jaxwalk.plot.scale import use_log_scale
 from jaxwalk.plot.statuses import failure_codes, legend_label, status_color, status_names
 from jaxwalk.status import Status
 
@@ -54,7 +56,7 @@ def heatmap_figure(ds: xr.Dataset, name: str, layout: Layout):
         name: a variable over the grid axes.
         layout: from :func:`jaxwalk.plot.layout.choose_layout` with ``kind="heatmap"``.
     """
-    from matplotlib.colors import Normalize, TwoSlopeNorm
+    from matplotlib.colors import LogNorm, Normalize, TwoSlopeNorm
     from matplotlib.figure import Figure  # no pyplot: no global backend or state
 
     views = panel_views(ds, layout)
@@ -77,6 +79,9 @@ def heatmap_figure(ds: xr.Dataset, name: str, layout: Layout):
         # (one lambda_max of 3.4 made every stable cell the same dark purple).
         norm = TwoSlopeNorm(vcenter=1.0, vmin=float(finite.min()), vmax=float(finite.max()))
         bar_label += "\n(linear below 1 and above 1, 1 at mid-scale)"
+    elif use_log_scale(ds, name, finite):
+        norm = LogNorm(vmin=float(finite.min()), vmax=float(finite.max()))
+        bar_label += " (log scale)"
 
     counts: dict[int, int] = {}
     drew_contour = drew_unstable = drew_unlocated = False

@@ -7,7 +7,8 @@ are filled markers, unstable ones (``lambda_max >= 1``) open markers. Failed
 points have no value, so they are marked on a thin strip under each panel,
 one row per curve in the curve's colour, with one marker shape per status,
 named in the legend. ``lambda_max`` figures draw the stability limit
-``lambda_max = 1``.
+``lambda_max = 1``; a variable that asks for it is drawn on a logarithmic value
+axis (:mod:`jaxwalk.plot.scale`).
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ import xarray as xr
 
 from jaxwalk.plot.labels import STABILITY_LIMIT, UNSTABLE, axis_label, figure_title, value_text, variable_label
 from jaxwalk.plot.layout import Layout, panel_views
+from jaxwalk.plot.scale import use_log_scale
 from jaxwalk.plot.statuses import failure_codes, legend_label, status_marker, status_names
 from jaxwalk.status import Status
 
@@ -58,6 +60,8 @@ def lines_figure(ds: xr.Dataset, name: str, layout: Layout):
     # Its light end stops at coral, 3:1 contrast on white (WCAG's for graphics): yellow vanishes.
     colors = ["C0"] if layout.y is None else [colormaps["plasma"](f) for f in np.linspace(0.0, 0.6, len(picked))]
     lam_known = "lambda_max" in ds and np.isfinite(ds["lambda_max"].values).any()
+    drawn_values = np.concatenate([v[name].where(v["status"] == Status.OK).values.ravel() for _, v in views])
+    log_scale = use_log_scale(ds, name, drawn_values)
     any_failed = any((v["status"].values != Status.OK).any() for _, v in views)
 
     fig = Figure(figsize=(8.0, 5.2) if single else (3.6 * ncols + 2.4, 3.0 * nrows + 1.4), layout="constrained")
@@ -92,8 +96,10 @@ def lines_figure(ds: xr.Dataset, name: str, layout: Layout):
             _style_strip(strip, labels, first_col=i % ncols == 0)
         if i + ncols >= len(views):  # no panel below this one
             bottom.set_xlabel(axis_label(ds, layout.x, long=single))
+        if log_scale:
+            ax.set_yscale("log")
         if i % ncols == 0:
-            ax.set_ylabel(variable_label(ds, name))
+            ax.set_ylabel(variable_label(ds, name) + (" (log scale)" if log_scale else ""))
         else:
             ax.tick_params(labelleft=False)
     fig.suptitle(figure_title(ds, name, layout.fixed), fontsize="medium")
