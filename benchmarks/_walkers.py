@@ -9,7 +9,7 @@ walker's (docs/model.md, "Defaults and the paper's walker").
 from __future__ import annotations
 
 from jaxwalk.models.flatfoot.model import PAPER_PARAMS
-from jaxwalk.parameters import as_params
+from jaxwalk.walker import as_params
 
 
 def benchmark_params(model) -> dict:
