@@ -36,7 +36,7 @@ PAPER_PARAMS = {
     "P": 0.0076, "k_hip": 0.0, "ankle_push": 0.0, "heel_brake": 0.0, "hip_double_support": 1.0,
     "swing_dorsi": 0.0, "knee_gate": 0.0, "scuff_tol": 0.03, "mu": 1e6,
 }  # fmt: skip
-#: Its gait ``(psi, psi_dot)`` at the other defaults (docs/model.md, "The paper's walker").
+#: Its gait ``(psi, psi_dot)`` (docs/model.md, "Defaults and the paper's walker": the nominal gait).
 PAPER_GAIT = (0.16327572732, -0.186444529299)
 #: Parameters of the admissible hip-spring gait: a hip
 #: spring and more hip torque swing the leg faster, so the knee is still flexed as
