@@ -210,6 +210,7 @@ def add_basin(sub) -> None:
     p.add_argument("config", metavar="CONFIG.toml", help="basin config (docs/global_stability.md)")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory: DIR/<name>_basin.zarr and DIR/<name>_basin.png")
     p.add_argument("--overwrite", action="store_true", help="replace existing outputs of the same name")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(run=cmd_basin)
 
 
@@ -225,7 +226,8 @@ def cmd_basin(args: argparse.Namespace) -> int:
     import numpy as np
 
     config = load_basin_config(args.config)
-    paths, ds = run_basin(config, args.out, overwrite=args.overwrite, command=args.command_line)
+    paths, ds = run_basin(config, args.out, overwrite=args.overwrite, command=args.command_line,
+                          progress=not args.no_progress)
     codes, counts = np.unique(ds["outcome"].values, return_counts=True)
     summary = ", ".join(f"{int(n)} {describe(c)}" for c, n in zip(codes, counts))
     print(f"wrote {paths['dataset']}, {paths['image']}: {int(counts.sum())} starts, {summary}")

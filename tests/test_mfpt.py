@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 
 from jaxwalk.gait import find_gait
-from jaxwalk.global_stability.mfpt import MFPTOptions, mfpt
+from jaxwalk.global_stability.mfpt import MFPTOptions, mesh_states, mfpt, plan
 from jaxwalk.global_stability.walks import monte_carlo
 from jaxwalk.models import get_model
 
@@ -79,6 +79,20 @@ def test_mfpt_is_reproducible():
     options = MFPTOptions(sigma=1.5e-4, mesh=9, samples=16, span=5.0)
     first, second = mfpt(model, params, v, options), mfpt(model, params, v, options)
     assert tuple(first) == tuple(second)
+
+
+def test_progress_counts_every_step_map_of_both_chains():
+    """What a sweep's MFPT bar counts (jaxwalk.progress): every step map of the fine and
+    the coarse chain, in one report per call, and reporting changes no number."""
+    model, params, v = _gait("simplest")
+    options = MFPTOptions(sigma=1.5e-4, mesh=9, samples=16, span=5.0)
+    done = []
+    reported = mfpt(model, params, v, options, progress=done.append)
+    chains = plan(model, params, v, options)
+    assert len(done) >= 2 and sum(done) == chains.steps
+    fine, coarse = (len(mesh_states(m)) for m in (chains.fine, chains.coarse))
+    assert chains.steps == fine * 16 + coarse * 8  # the coarse chain: half the samples
+    assert tuple(reported) == tuple(mfpt(model, params, v, options))
 
 
 @pytest.mark.parametrize("kwargs, words", [({"n_walks": 1}, "n_walks must be an integer >= 2"),

@@ -164,16 +164,30 @@ def grid_outputs(model, params: Mapping[str, np.ndarray], gaits, status: np.ndar
         gsn = np.asarray(run(program, Rows({k: np.asarray(x) for k, x in rows.items()}, at)))
         out["gait_sensitivity_norm"] = np.where(ok, gsn, np.nan).reshape(shape)
     if options.mfpt is not None:
-        from jaxwalk.global_stability.mfpt import MFPTOptions, mfpt
-
-        mo = MFPTOptions(**dict(options.mfpt))
-        values = np.full((len(ok), 4), np.nan)
-        for i in np.flatnonzero(ok):
-            r = mfpt(model, {k: float(x[i]) for k, x in rows.items()}, v[i], mo, solver)
-            values[i] = (r.mfpt, r.error, r.quasi_stationary, r.escaped)
+        values = _mfpt_values(model, rows, v, ok, options.mfpt, solver)
         for j, key in enumerate(MFPT_KEYS):
             out[key] = values[:, j].reshape(shape)
     return out
+
+
+def _mfpt_values(model, rows, v: np.ndarray, ok: np.ndarray, settings, solver) -> np.ndarray:
+    """``(n, 4)``: :data:`MFPT_KEYS` of each row's gait (NaN where ``ok`` is False), the
+    gaits' chains planned first so that a :func:`jaxwalk.progress.stage` counts their step maps."""
+    from jaxwalk.global_stability import mfpt
+    from jaxwalk.progress import stage
+
+    options = mfpt.MFPTOptions(**dict(settings))
+    values = np.full((len(ok), 4), np.nan)
+    if options.sigma == 0.0:  # nothing to plan: the walker never falls
+        for i in np.flatnonzero(ok):
+            values[i] = mfpt.mfpt(model, {}, v[i], options)[:4]
+        return values
+    plans = {int(i): mfpt.plan(model, {k: float(x[i]) for k, x in rows.items()}, v[i], options, solver) for i in np.flatnonzero(ok)}
+    with stage(f"mfpt, {len(plans)} gaits", sum(p.steps for p in plans.values()), "step") as advance:
+        for i, chains in plans.items():
+            r = mfpt.run(model, chains, options.sigma, solver, advance)
+            values[i] = (r.mfpt, r.error, r.quasi_stationary, r.escaped)
+    return values
 
 
 class GlobalStability(Analysis):

@@ -15,6 +15,7 @@ coordinates' values, their names and units in the attributes):
 from __future__ import annotations
 
 import functools
+import sys
 from pathlib import Path
 from typing import NamedTuple
 
@@ -60,6 +61,11 @@ class FateStart(NamedTuple):
     scale: np.ndarray  # (n, n_v) the section's scale of distance
 
 
+#: Starts per call of the fate program: one compiled shape for every image size
+#: (the last call padded, :func:`jaxwalk.batching.run_chunks`).
+CALL_STARTS = 4096
+
+
 @functools.lru_cache(maxsize=None)
 def _fate_program(model, options, solver):
     from jaxwalk.analyses.base import row_program
@@ -71,8 +77,9 @@ def _fate_program(model, options, solver):
     return row_program(one, model.lockstep_batch, "basin_fate", model, options, solver)
 
 
-def walk_starts(config: BasinConfig, model, params, v_star: np.ndarray, starts: np.ndarray, solver):
-    """:class:`~jaxwalk.global_stability.basin.Fate` of every start (NumPy leaves)."""
+def walk_starts(config: BasinConfig, model, params, v_star: np.ndarray, starts: np.ndarray, solver, progress=None):
+    """:class:`~jaxwalk.global_stability.basin.Fate` of every start (NumPy leaves);
+    ``progress(n)`` after each call of ``n`` starts."""
     from jaxwalk.batching import Rows, run_chunks
     from jaxwalk.global_stability.basin import BasinOptions
 
@@ -81,7 +88,7 @@ def walk_starts(config: BasinConfig, model, params, v_star: np.ndarray, starts: 
     n = len(starts)
     start = FateStart(starts, np.repeat(v_star[None], n, 0), np.repeat(np.asarray(config.scale)[None], n, 0))
     rows = Rows({k: np.full(n, float(v)) for k, v in params.items()}, start)
-    return run_chunks(program, rows, 4096, None)
+    return run_chunks(program, rows, CALL_STARTS, progress)
 
 
 def find_gait_or_fail(config: BasinConfig, model, params, solver):
@@ -135,9 +142,12 @@ def build_dataset(config: BasinConfig, model, gait, xs, ys, fates, command: str 
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
 
-def run_basin(config: BasinConfig, out, *, overwrite: bool = False, command: str | None = None, solver=None):
+def run_basin(config: BasinConfig, out, *, overwrite: bool = False, command: str | None = None, solver=None,
+              progress: bool = False):
     """Check the outputs, find the gait, walk the starts, write the dataset and the image;
-    returns ``(paths, dataset)``."""
+    returns ``(paths, dataset)``. ``progress``: a bar over the starts (on stderr)."""
+    from tqdm.auto import tqdm
+
     from jaxwalk.basin.figure import save_basin
     from jaxwalk.files import write_atomically, write_zarr
     from jaxwalk.step import SolverOptions
@@ -150,7 +160,8 @@ def run_basin(config: BasinConfig, out, *, overwrite: bool = False, command: str
     gait = find_gait_or_fail(config, model, params, solver)
     v_star = np.asarray(gait.v, np.float64)
     xs, ys, starts = starts_grid(config, v_star)
-    fates = walk_starts(config, model, config.fixed, v_star, starts, solver)
+    with tqdm(total=len(starts), unit="start", desc=f"{config.name} basin", disable=not progress, file=sys.stderr) as bar:
+        fates = walk_starts(config, model, config.fixed, v_star, starts, solver, bar.update)
     ds = build_dataset(config, model, gait, xs, ys, fates, command)
     write_zarr(ds, paths["dataset"], overwrite=overwrite)
     write_atomically(paths["image"], lambda p: save_basin(ds, p))

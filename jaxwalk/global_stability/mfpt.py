@@ -46,7 +46,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-from typing import NamedTuple
+from typing import Callable, NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -216,15 +216,48 @@ def _transitions(mesh: Mesh, v_next: np.ndarray, ok: np.ndarray, weights: np.nda
 UNRESOLVED_FAILURE_RATE = 1e-10
 
 
-def _chain(model: Walker, params, lin_J, lin_B, v_star, options: MFPTOptions, points: int, samples: int, solver):
-    """``(t at the gait, quasi-stationary MFPT, escaped, n_states)`` of one mesh."""
-    mesh = principal_mesh(lin_J, lin_B, v_star, options, points)
+class ChainPlan(NamedTuple):
+    """One gait's two chains, meshed and ready to run (:func:`plan`).
+
+    Attributes:
+        params: the walker's parameters (scalars).
+        v_star: ``(n_v,)`` the gait's fixed point.
+        fine, coarse: the chain's mesh and the error estimate's, half as fine.
+        samples: terrain samples per mesh point of each, ``(fine, coarse)``.
+    """
+
+    params: dict
+    v_star: np.ndarray
+    fine: Mesh
+    coarse: Mesh
+    samples: tuple[int, int]
+
+    @property
+    def steps(self) -> int:
+        """Step maps the two chains take (the work of :func:`run`)."""
+        return sum(m.points ** m.axes.shape[1] * s for m, s in zip((self.fine, self.coarse), self.samples))
+
+
+def plan(model: Walker, params, v_star, options: MFPTOptions, solver: SolverOptions = SolverOptions()) -> ChainPlan:
+    """The meshes of the gait at ``v_star`` (``sigma > 0``): the linearised chain's principal axes."""
+    v_star = np.asarray(v_star, np.float64)
+    p = {k: jnp.asarray(v, jnp.float64) for k, v in params.items()}
+    lin = _linearise_program(model, solver)(p, jnp.asarray(v_star))
+    J, B = np.asarray(lin.J), np.asarray(lin.B)
+    coarse_points, coarse_samples = (options.mesh + 1) // 2, max(2, options.samples // 2)
+    return ChainPlan(p, v_star, principal_mesh(J, B, v_star, options, options.mesh),
+                     principal_mesh(J, B, v_star, options, coarse_points), (options.samples, coarse_samples))
+
+
+def _chain(model: Walker, params, v_star, mesh: Mesh, sigma: float, samples: int, solver, progress):
+    """``(t at the gait, quasi-stationary MFPT, escaped, n_states)`` of one mesh;
+    ``progress(n)`` after each call of ``n`` steps."""
     states = mesh_states(mesh)
-    drops, weights = terrain_samples(options.sigma, samples)
+    drops, weights = terrain_samples(sigma, samples)
     n = len(states) * len(drops)
     transitions = Transition(np.repeat(states, len(drops), axis=0), np.tile(drops, len(states)))
     steps = Rows({k: np.full(n, float(x)) for k, x in params.items()}, transitions)
-    v_next, status = run_chunks(_step_program(model, solver), steps, CALL_ROWS, None)
+    v_next, status = run_chunks(_step_program(model, solver), steps, CALL_ROWS, progress)
     q, escaped = _transitions(mesh, np.asarray(v_next), np.asarray(status) == Status.OK, weights)
     n = q.shape[0]
     t = scipy.sparse.linalg.spsolve((scipy.sparse.identity(n, format="csc") - q).tocsc(), q @ np.ones(n))
@@ -257,15 +290,20 @@ def _dominant_eigenvalue(q) -> tuple[float, np.ndarray]:
     return float(np.abs(vals[0])), pi / pi.sum()
 
 
-def mfpt(model: Walker, params, v_star, options: MFPTOptions, solver: SolverOptions = SolverOptions()) -> MFPTResult:
-    """The MFPT of the gait at ``v_star`` (module docstring). Host-side linear algebra; not differentiable."""
-    v_star = np.asarray(v_star, np.float64)
+def mfpt(model: Walker, params, v_star, options: MFPTOptions, solver: SolverOptions = SolverOptions(),
+         progress: Callable[[int], None] | None = None) -> MFPTResult:
+    """The MFPT of the gait at ``v_star`` (module docstring). Host-side linear algebra; not differentiable.
+
+    ``progress(n)``: called as each call of ``n`` step maps finishes (``plan(...).steps`` in all)."""
     if options.sigma == 0.0:
         return MFPTResult(np.inf, 0.0, np.inf, 0.0, 1)
-    p = {k: jnp.asarray(v, jnp.float64) for k, v in params.items()}
-    lin = _linearise_program(model, solver)(p, jnp.asarray(v_star))
-    J, B = np.asarray(lin.J), np.asarray(lin.B)
-    fine = _chain(model, p, J, B, v_star, options, options.mesh, options.samples, solver)
-    coarse = _chain(model, p, J, B, v_star, options, (options.mesh + 1) // 2, max(2, options.samples // 2), solver)
+    return run(model, plan(model, params, v_star, options, solver), options.sigma, solver, progress)
+
+
+def run(model: Walker, chains: ChainPlan, sigma: float, solver: SolverOptions = SolverOptions(),
+        progress: Callable[[int], None] | None = None) -> MFPTResult:
+    """The MFPT from a :func:`plan`'s two chains (``sigma`` as planned); ``progress`` as :func:`mfpt`."""
+    fine, coarse = (_chain(model, chains.params, chains.v_star, mesh, sigma, samples, solver, progress)
+                    for mesh, samples in zip((chains.fine, chains.coarse), chains.samples))
     error = 0.0 if fine[0] == coarse[0] == np.inf else abs(fine[0] - coarse[0])
     return MFPTResult(fine[0], error, fine[1], fine[2], fine[3])

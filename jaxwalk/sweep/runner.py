@@ -176,6 +176,7 @@ def _compute_blocks(config, analyse, options, store, starts, *, progress: bool, 
     to continue (:class:`SweepInterrupted`); record this machine's speed (:mod:`timings`)."""
     from tqdm.auto import tqdm
 
+    from jaxwalk.progress import shown as stage_bars
     from jaxwalk.sweep.chunks import chunk_results
 
     act = analyses.active(config)
@@ -190,7 +191,7 @@ def _compute_blocks(config, analyse, options, store, starts, *, progress: bool, 
     try:
         with chunk_results(analyse, config, options, store, keys, dask=dask, starts=starts) as finished:  # connects first
             bar = tqdm(total=config.n_points, initial=store.points_done, unit="pt", desc=config.name, disable=not progress)
-            with bar:
+            with bar, stage_bars(progress):  # the heavy analyses' own bars, under this one
                 for index, results in finished:  # each block checked and on disk as soon as it is done
                     shape = tuple(r.stop - r.start for r in store.region(index))
                     store.write(index, analyses.check_block(results, shape, n_v, act))
