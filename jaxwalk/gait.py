@@ -121,6 +121,22 @@ def value_and_jacfwd(fn, v: Array):
     return value, jac, aux
 
 
+def jacfwd_with_aux(fn, x: Array):
+    """``jax.jacfwd(fn, has_aux=True)(x)`` for ``x`` of shape ``(n,)``: ``(jacobian (..., n), aux)``.
+
+    With one direction (``n = 1``, a derivative with respect to one parameter)
+    it is a plain ``jvp``, without ``jacfwd``'s ``vmap`` over the basis: the
+    batching rules of the nested while loops under it are most of a
+    second-order program's trace (the simplest walker's gait sensitivity norm
+    and its gradient traced in 27 s under ``jacfwd``, 15 s as one ``jvp``; the
+    same program to 1e-15, benchmarks/README.md).
+    """
+    if x.shape != (1,):
+        return jax.jacfwd(fn, has_aux=True)(x)
+    _, tangent, aux = jax.jvp(fn, (x,), (jnp.ones_like(x),), has_aux=True)
+    return jax.tree_util.tree_map(lambda t: t[..., None], tangent), aux
+
+
 def _stability(jacobian: Array) -> tuple[Array, Array]:
     eig = jnp.linalg.eigvals(jacobian)
     order = jnp.argsort(-jnp.abs(eig))

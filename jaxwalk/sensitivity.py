@@ -49,7 +49,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float, Int8, Int32
 
-from jaxwalk.gait import NewtonOptions, find_gait, value_and_jacfwd
+from jaxwalk.gait import NewtonOptions, find_gait, jacfwd_with_aux, value_and_jacfwd
 from jaxwalk.status import Status
 from jaxwalk.step import SolverOptions, step_map
 from jaxwalk.walker import Walker
@@ -280,7 +280,7 @@ def gait_sensitivity(
 
     One configuration (``vmap`` it); ``names`` is static. Forward mode: the
     parameters' ``n_p`` tangents go through :func:`gait_metrics` together
-    (``jax.jacfwd``), so the Newton search runs once.
+    (``jax.jacfwd``; one ``jvp`` for one parameter), so the Newton search runs once.
     """
     names = tuple(names)
     rest = {k: val for k, val in params.items() if k not in names}
@@ -296,7 +296,7 @@ def gait_sensitivity(
         return floats(m), m
 
     # has_aux keeps the integer status and the undifferentiated fields out of the tangents.
-    jac, metrics = jax.jacfwd(fn, has_aux=True)(x)
+    jac, metrics = jacfwd_with_aux(fn, x)
     d_v, d_lam, d_speed, d_len, d_period, d_cot = jac
     needed = jnp.concatenate([d_v.ravel(), d_lam, d_speed, d_len, d_period])
     status = metrics.status

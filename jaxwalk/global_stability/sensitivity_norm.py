@@ -146,7 +146,7 @@ def norm_and_gradient(
     (:func:`jaxwalk.sensitivity.gait_metrics`); the norm's is then forward over
     forward through the step (``J, B, C, D`` along ``(dv*, dp)``). NaN where no gait.
     """
-    from jaxwalk.gait import NewtonOptions
+    from jaxwalk.gait import NewtonOptions, jacfwd_with_aux
     from jaxwalk.sensitivity import gait_metrics
 
     newton = NewtonOptions() if newton is None else newton
@@ -160,5 +160,5 @@ def norm_and_gradient(
         return value, value
 
     x = jnp.stack([jnp.asarray(params[n], jnp.float64) for n in names])
-    grad, value = jax.jacfwd(of, has_aux=True)(x)
+    grad, value = jacfwd_with_aux(of, x)
     return value, grad
