@@ -72,6 +72,7 @@ class _Carry(NamedTuple):
     n_events: Array
     work: Array
     ode_steps: Array  # solver steps (accepted or rejected) in the step: the phases' n_steps summed
+    guard: Array  # int32, the guard of the last phase's event (-1: it ended without one)
 
 
 def _solver(opts: SolverOptions):
@@ -202,6 +203,7 @@ def _close_phase(model: Walker, params, opts: SolverOptions, c: _Carry, go_on: _
         length=c.length + end.shift,
         status=end.status,
         n_events=end.n_events,
+        guard=jnp.where(end.event_happened, end.guard, -1),
         # Work over the phase, from its start to the event (before the reset,
         # which may relabel the legs); impacts do not move the joints.
         work=c.work + model.actuator_work(c.y_start, end.y_event, params, c.phase, c.ctx),
@@ -259,6 +261,7 @@ def _advance(model: Walker, params, opts: SolverOptions, c: _Carry) -> _Carry:
         n_events=c.n_events,
         work=c.work,
         ode_steps=c.ode_steps + 1,
+        guard=c.guard,
     )
 
     close = lambda: _close_phase(model, params, opts, c, go_on, t_ev, y_ev, result)
@@ -303,7 +306,8 @@ def run_step_flat(model: Walker, params: Params, y0: Float[Array, "2*n_q"], phas
         n_events=jnp.zeros((), jnp.int32),
         work=zero,
         ode_steps=jnp.zeros((), jnp.int32),
+        guard=jnp.full((), -1, jnp.int32),
     )
     running = lambda c: c.status == Status.IN_PROGRESS
     c = jax.lax.while_loop(running, lambda c: _advance(model, params, opts, c), carry0)
-    return StepResult(c.y, c.ctx, c.phase, c.t, c.length, c.status, c.n_events, c.work, c.ode_steps)
+    return StepResult(c.y, c.ctx, c.phase, c.t, c.length, c.status, c.n_events, c.work, c.ode_steps, c.guard)

@@ -57,11 +57,33 @@ class GaitStats(NamedTuple):
             when the search converged): :attr:`~jaxwalk.stepbase.StepResult.n_events`.
         ode_steps: ODE solver steps, accepted and rejected, over every phase of the
             last step evaluated: :attr:`~jaxwalk.stepbase.StepResult.ode_steps`.
+        failure_phase: where the search failed because a step failed: the index in
+            :attr:`~jaxwalk.walker.Walker.phases` of the phase in which that step
+            stopped; -1 elsewhere (a gait found, Newton not converging).
+        failure_guard: the index in :attr:`~jaxwalk.walker.Walker.guards` of the
+            guard whose event ended that step (a failure guard, or a transition
+            whose reset failed: an impact's impulse, the next phase's entry
+            check); -1 elsewhere, and where no event ended it (a time limit, a
+            solver failure).
+        failure_limit: where that guard is one of the model's
+            :attr:`~jaxwalk.walker.Walker.limit_guards`, the index in
+            :attr:`~jaxwalk.walker.Walker.limits` of the limit at its edge there
+            (the largest :meth:`~jaxwalk.walker.Walker.limit_use` at the
+            failure's state); -1 elsewhere.
     """
 
     newton_iterations: Int32[Array, "*batch"]
     events: Int32[Array, "*batch"]
     ode_steps: Int32[Array, "*batch"]
+    failure_phase: Int32[Array, "*batch"]
+    failure_guard: Int32[Array, "*batch"]
+    failure_limit: Int32[Array, "*batch"]
+
+    @classmethod
+    def none(cls) -> "GaitStats":
+        """No search made (a gait given, not found): zero cost, no failure."""
+        zero, none = jnp.zeros((), jnp.int32), jnp.full((), -1, jnp.int32)
+        return cls(zero, zero, zero, none, none, none)
 
 
 class Gait(NamedTuple):
@@ -167,7 +189,9 @@ def find_gait(
     n_v, dtype = v0.shape[0], v0.dtype
     nan = jnp.full((), jnp.nan, dtype)
     zero = jnp.zeros((), jnp.int32)
-    carry0 = _Newton(v0, zero, running, jnp.asarray(False), jnp.full((n_v, n_v), jnp.nan, dtype), nan, nan, nan, zero, zero)
+    y0, _, ctx0 = jax.eval_shape(model.section_to_state, v0, params)  # the shapes of a step's state
+    carry0 = _Newton(v0, zero, running, jnp.asarray(False), jnp.full((n_v, n_v), jnp.nan, dtype), nan, nan, nan, zero, zero,
+                     zero - 1, zero - 1, jnp.full(y0.shape, jnp.nan, y0.dtype), jnp.full(ctx0.shape, jnp.nan, ctx0.dtype))
     body = _newton_iteration(step_residual(model, params, solver), newton, jnp.eye(n_v, dtype=dtype))
 
     def cond(c: _Newton):
@@ -191,6 +215,10 @@ class _Newton(NamedTuple):
     work: Array
     events: Array  # int32, events in the last evaluated step
     ode_steps: Array  # int32, its ODE solver steps
+    phase: Array  # int32, the phase where it stopped
+    guard: Array  # int32, the guard of its last event (StepResult.guard)
+    y_end: Array  # (2 n_q,) the state where it stopped
+    ctx_end: Array  # (n_ctx,)
 
 
 def _newton_iteration(residual, newton: NewtonOptions, eye: Array):
@@ -228,6 +256,10 @@ def _newton_iteration(residual, newton: NewtonOptions, eye: Array):
             work=res.work,
             events=res.n_events,
             ode_steps=res.ode_steps,
+            phase=res.phase,
+            guard=res.guard,
+            y_end=res.y,
+            ctx_end=res.ctx,
         )
 
     return body
@@ -251,8 +283,40 @@ def _gait(model: Walker, params, out: _Newton) -> Gait:
         iterations=out.k,
         work=blank(out.work),
         cost_of_transport=blank(out.work / (model.weight(params) * out.length)),
-        stats=GaitStats(out.k, out.events, out.ode_steps),
+        stats=_stats(model, params, out),
     )
+
+
+def _stats(model: Walker, params, out: _Newton) -> GaitStats:
+    """What the search cost, and where a failed step stopped (:class:`GaitStats`)."""
+    cause = failure_cause(model, params, out.status, out.phase, out.guard, out.y_end, out.ctx_end)
+    return GaitStats(out.k, out.events, out.ode_steps, *cause)
+
+
+def failure_cause(model: Walker, params, status, phase, guard, y, ctx) -> tuple[Array, Array, Array]:
+    """``(phase, guard, limit)`` int32 indices (in ``model.phases``, ``model.guards``,
+    ``model.limits``) of a failure with ``status`` of a step that stopped in
+    ``phase`` at the state ``(y (2 n_q,), ctx)`` after the event of ``guard``
+    (:attr:`~jaxwalk.stepbase.StepResult.guard`); each -1 where it does not apply
+    (:class:`GaitStats`). ``NO_CONVERGENCE`` and ``OK`` are not a step's failure: all -1.
+
+    The limit is read, not guessed: a limit guard is the least of its limits'
+    margins, so at its event the limit that ends the step is at its edge (use 1;
+    past it where the phase began beyond it) and the others are not: the largest
+    :meth:`~jaxwalk.walker.Walker.limit_use` names it. Where no limit applies
+    there or the contact does not push (every use inf or NaN), none is named.
+    """
+    step_failed = (status != Status.OK) & (status != Status.NO_CONVERGENCE)
+    none = jnp.full((), -1, jnp.int32)
+    limit = none
+    if model.limit_guards:
+        on_limits = jnp.isin(guard, jnp.asarray([model.guards.index(g) for g in model.limit_guards]))
+        use = model.limit_use(y, params, phase, ctx)
+        use = jnp.where(jnp.isnan(use), -jnp.inf, use)  # NaN: the limit does not apply in this phase
+        named = on_limits & jnp.isfinite(jnp.max(use))
+        limit = jnp.where(named, jnp.argmax(use), none)
+    mark = lambda x: jnp.where(step_failed, x, none).astype(jnp.int32)
+    return mark(phase), mark(guard), mark(limit)
 
 
 def step_jacobian(model: Walker, v: Float[Array, "n_v"], params: Params,

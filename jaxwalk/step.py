@@ -159,6 +159,7 @@ class _PhaseLoop(NamedTuple):
     n_events: Array  # int32, events so far
     work: Array  # actuator work so far (model energy units)
     ode_steps: Array  # int32, ODE solver steps so far (accepted and rejected)
+    guard: Array  # int32, the guard of the last phase's event (-1: it ended without one)
 
 
 @functools.partial(jax.jit, static_argnums=(0, 5))  # see _solve_phase
@@ -192,7 +193,7 @@ def run_step(model: Walker, params: Params, y0: Float[Array, "2*n_q"], phase0: I
         # which may relabel the legs); impacts do not move the joints.
         work = c.work + model.actuator_work(c.y, end.y_event, params, c.phase, c.ctx)
         return _PhaseLoop(end.t_event, end.y_next, end.phase_next, end.ctx_next, c.length + end.shift, end.status,
-                          end.n_events, work, c.ode_steps + ode_steps)
+                          end.n_events, work, c.ode_steps + ode_steps, jnp.where(end.event_happened, end.guard, -1))
 
     dtype = y0.dtype
     c0 = _PhaseLoop(
@@ -205,9 +206,10 @@ def run_step(model: Walker, params: Params, y0: Float[Array, "2*n_q"], phase0: I
         n_events=jnp.zeros((), jnp.int32),
         work=jnp.zeros((), dtype),
         ode_steps=jnp.zeros((), jnp.int32),
+        guard=jnp.full((), -1, jnp.int32),
     )
     c = jax.lax.while_loop(cond, body, c0)
-    return StepResult(c.y, c.ctx, c.phase, c.t, c.length, c.status, c.n_events, c.work, c.ode_steps)
+    return StepResult(c.y, c.ctx, c.phase, c.t, c.length, c.status, c.n_events, c.work, c.ode_steps, c.guard)
 
 
 def step_map(model: Walker, v: Float[Array, "n_v"], params: Params, opts: SolverOptions = SolverOptions(),

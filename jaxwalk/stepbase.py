@@ -98,7 +98,8 @@ class StepResult(NamedTuple):
         y: ``(2 n_q,)`` state at the start of the next step (legs swapped), or the
             state where the step stopped.
         ctx: ``(n_ctx,)`` discrete state with ``y``.
-        phase: int32 phase where the loop stopped.
+        phase: int32 phase where the loop stopped (a failed step: the phase in
+            which it failed).
         time: step duration (model time units).
         length: distance the stance foot moved (model length units).
         status: int8 :class:`~jaxwalk.status.Status`.
@@ -108,6 +109,10 @@ class StepResult(NamedTuple):
             :meth:`~jaxwalk.walker.Walker.actuator_work`.
         ode_steps: ODE solver steps, accepted and rejected, summed over the
             step's phases (what the step cost; :class:`jaxwalk.gait.GaitStats`).
+        guard: int32 index in :attr:`~jaxwalk.walker.Walker.guards` of the guard
+            whose event ended the step's last phase (with ``phase``: where and
+            by what a failed step failed); -1 where that phase ended without an
+            event (its time limit, a solver failure).
     """
 
     y: Float[Array, "*batch 2*n_q"]
@@ -119,6 +124,7 @@ class StepResult(NamedTuple):
     n_events: Int32[Array, "*batch"]
     work: Float[Array, "*batch"]
     ode_steps: Int32[Array, "*batch"]
+    guard: Int32[Array, "*batch"]
 
 
 class PhaseEnd(NamedTuple):
@@ -205,13 +211,16 @@ def close_phase(
         (new_status == in_progress) & (n_events >= opts.max_events), jnp.int8(Status.TOO_MANY_EVENTS), new_status
     )
     keep = event_happened & finite
+    # A failed step stops in the phase where it failed, whatever phase the
+    # model's transition names (the compass walker's names the next one).
+    failed = (new_status != in_progress) & (new_status != Status.OK)
     return PhaseEnd(
         t_event=t_event,
         y_event=y_event,
         guard=which.astype(jnp.int32),
         event_happened=event_happened,
         y_next=jnp.where(keep, tr.y, y_event),
-        phase_next=jnp.where(keep, tr.phase, phase).astype(jnp.int32),
+        phase_next=jnp.where(keep & ~failed, tr.phase, phase).astype(jnp.int32),
         ctx_next=jnp.where(keep, tr.ctx, ctx),
         shift=jnp.where(keep, tr.shift, 0.0),
         step_done=tr.step_done & keep,

@@ -93,6 +93,10 @@ class Walker:
         section_names: names of the independent section coordinates ``v``.
         n_constraints: number of constraint rows (active or not).
         limits: names of the contact limits :meth:`limit_use` measures (none by default).
+        limit_guards: names of the guards each of which is the least of several
+            limits' margins (zero where one of them reaches its edge): where a
+            step fails by one of them, the limit at its edge is the one named
+            (:attr:`jaxwalk.gait.GaitStats.failure_limit`).
         ground_next: index in ``ctx`` of the ground height at the next touchdown
             (the step-down capability), or ``None``.
         lockstep_batch: configurations one worker thread runs together in a grid analysis.
@@ -113,6 +117,7 @@ class Walker:
     section_names: tuple[str, ...] = ()
     n_constraints: int = 0
     limits: tuple[str, ...] = ()
+    limit_guards: tuple[str, ...] = ()
     #: Units of lengths and times in outputs (period, step length, speed).
     units: dict = {"length": "1", "time": "1"}
     #: Configurations (or continuation lines) one worker thread advances together,

@@ -8,6 +8,7 @@ import pytest
 from jaxwalk.gait import find_gait, step_jacobian
 from jaxwalk.grid import analyse_grid
 from jaxwalk.models import get_model
+from jaxwalk.status import Status
 from jaxwalk.step import SolverOptions, step_map
 
 # Garcia, Chatterjee, Ruina, Coleman (1998), section just after heel-strike.
@@ -116,6 +117,23 @@ def test_failed_search_is_a_status_not_a_number():
     out = analyse_grid(MODEL, {}, {"gamma": np.array([-0.01])}, continuation_axis=None)
     assert out["status"][0] != 0
     assert np.isnan(out["lambda_max"][0]) and np.all(np.isnan(out["fixed_point"][0]))
+
+
+@pytest.mark.parametrize("gamma, status, phase, guard", [
+    (-0.01, Status.STALLED, "single_support_early", "stall"),  # uphill: it swings back
+    (0.03, Status.SCUFFING, "single_support_early", "midstance"),  # the swing leg still behind at mid-stance
+    (0.009, Status.OK, None, None),
+])
+def test_a_failed_search_keeps_where_its_step_failed(gamma, status, phase, guard):
+    """GaitStats: the phase and the event of the step that ended the search, each
+    consistent with the status (the stall guard stalls; the mid-stance check scuffs,
+    at the end of the early phase); -1 where the search succeeded; no contact limits here."""
+    gait = _search({"gamma": jnp.asarray(gamma, jnp.float64)})
+    stats = gait.stats
+    assert int(gait.status) == status
+    assert (MODEL.phases[int(stats.failure_phase)] if phase else int(stats.failure_phase)) == (phase or -1)
+    assert (MODEL.guards[int(stats.failure_guard)] if guard else int(stats.failure_guard)) == (guard or -1)
+    assert int(stats.failure_limit) == -1
 
 
 @pytest.mark.parametrize("gamma", [0.004, 0.012])

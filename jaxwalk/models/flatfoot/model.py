@@ -112,6 +112,7 @@ class FlatFootWalker(Walker):
     phases = ph.PHASE_NAMES
     guards = events.GUARD_NAMES
     limits = contact_limits.LIMIT_NAMES
+    limit_guards = ("slip", "foot_roll")
     context = ph.CONTEXT
     ground_next = ph.C["ground_next"]
     section_names = ("psi", "psi_dot")
