@@ -52,7 +52,9 @@ class AnalysisOptions:
         global_stability: the gait sensitivity norm and the MFPT
             (:class:`jaxwalk.global_stability.options.GlobalOptions`); ``None`` skips them.
         more: ``(name, options)`` of the other analyses to run (:mod:`jaxwalk.analyses`
-            plug-ins without a field here), in any order.
+            plug-ins without a field here), in any order; by default the one
+            that is on by default in a config too, ``failure_cause``
+            (:mod:`jaxwalk.analyses.failure`).
     """
 
     solver: SolverOptions = SolverOptions()
@@ -61,7 +63,7 @@ class AnalysisOptions:
     step_down: StepDownOptions | None = None
     attractors: AttractorOptions | None = None
     global_stability: object | None = None
-    more: tuple[tuple[str, object], ...] = ()
+    more: tuple[tuple[str, object], ...] = (("failure_cause", True),)
 
 
 @functools.lru_cache(maxsize=None)

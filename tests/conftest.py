@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from jaxwalk.analyses import gait as gait_analysis, step_down as step_down_analysis
+from jaxwalk.analyses import failure as failure_analysis, gait as gait_analysis, step_down as step_down_analysis
 from jaxwalk.status import Status
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -142,6 +142,8 @@ class FakeAnalysis:
         if step_down is not None:
             values.update(self.step_down_values(status, step_down))
             outputs += step_down_analysis.OUTPUTS
+        if dict(getattr(options, "more", ())).get("failure_cause"):
+            outputs += failure_analysis.OUTPUTS  # 0 everywhere: no step failed (NO_CONVERGENCE is not a step's)
         out = _as_declared(outputs, values, s, status, gait_analysis.ANALYSIS.sizes(True, n_v))
         if self.nan_with_ok:
             out["period"].flat[0] = np.nan

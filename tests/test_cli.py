@@ -10,6 +10,7 @@ import xarray as xr
 
 from jaxwalk import cli
 from jaxwalk.grid import AnalysisOptions
+from jaxwalk.models import get_model
 from jaxwalk.status import Status, flag_attributes
 from jaxwalk.stepdown import StepDownOptions
 from jaxwalk.sweep import load_config, run_sweep
@@ -196,6 +197,10 @@ def test_end_to_end_dataset_layout(tmp_path, fake_analysis):
     for name in ("lambda_max", "period", "step_length", "speed", "newton_iterations"):
         assert ds[name].dims == ("gamma",)
     assert ds["period"].attrs["units"] == "1" and ds["speed"].attrs["units"] == "1"  # dimensionless model
+    # Where failed steps failed: CF flags naming the model's phases, guards and limits (none).
+    assert ds["failure_phase"].attrs["flag_meanings"] == "none single_support_early single_support_late"
+    assert ds["failure_event"].attrs["flag_meanings"].split() == ["none", *get_model("simplest").guards]
+    assert ds["failure_limit"].attrs["flag_values"] == [0] and ds["failure_phase"].dtype == np.int8
 
     # Failures: status != 0 and NaN numbers; never NaN with status 0.
     failed = ds["gamma"].values > 0.0155

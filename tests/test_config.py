@@ -196,7 +196,7 @@ def test_grid_too_large_gives_size_and_memory():
     text = 'name = "a"\nmodel = "compass"\n[grid]\nm = { start = 1.0, stop = 2.0, num = 4000 }\nm_h = { start = 1.0, stop = 2.0, num = 4000 }\n'
     message = config_error(text)
     assert "16,000,000 points (4000 x 4000), more than the limit of 10,000,000" in message
-    assert "about 2 GB" in message  # (1 + 4 + 48 + 3 * 24) bytes a point
+    assert "about 2.05 GB" in message  # (1 + 4 + 48 + 3 * 24 + 3) bytes a point
     assert "--max-points" in message
 
 
@@ -334,7 +334,7 @@ def test_h_max_enlarges_the_size_estimate():
     text = 'name = "a"\nmodel = "compass"\n[grid]\nm = { start = 1.0, stop = 2.0, num = 4000 }\nm_h = { start = 1.0, stop = 2.0, num = 4000 }\n'
     message = config_error(text + "[analysis]\nh_max = true\n")
     assert "16,000,000 points (4000 x 4000)" in message
-    assert "about 2.27 GB" in message  # (1 + 4 + 48 + 3 * 24 + 1 + 16) bytes a point
+    assert "about 2.32 GB" in message  # (1 + 4 + 48 + 3 * 24 + 3 + 1 + 16) bytes a point
 
 
 def test_resolved_config_is_itself_a_valid_config():

@@ -13,6 +13,7 @@ import pytest
 import xarray as xr
 
 from jaxwalk import cli
+from jaxwalk.analyses import failure
 from jaxwalk.models import get_model
 from jaxwalk.plot import choose_layout, heatmap_figure, lines_figure, make_figures, plot_dataset
 from jaxwalk.plot.heatmap import CONTOUR_GID
@@ -57,6 +58,7 @@ def synthetic(grid: str, *, model: str = "compass", failures=None, lam=(0.4, 1.6
         "h_max": nan(0.001 * np.round(10 * (1 - u[0]))),
         "step_down_status": np.where(failed, status, Status.FELL).astype(np.int8),
         "h_failed": nan(0.001 * np.round(10 * (1 - u[0])) + 0.001),
+        **{o.name: np.zeros(u[0].shape, np.int8) for o in failure.OUTPUTS},  # "none": no step failed
     }
     ds = build_dataset(config, spec, results)
     # cost_of_transport is an optional variable: make its presence the test's choice.

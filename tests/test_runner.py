@@ -99,7 +99,7 @@ def test_the_fake_analysis_follows_the_declared_gait_outputs(monkeypatch, fake_a
     monkeypatch.setattr(gait, "OUTPUTS", gait.OUTPUTS + (extra,))
     model = get_model("compass")
     n_v = len(model.section_names)
-    out = fake_analysis(fail_above=0.03)(model, {}, {"gamma": np.array([0.02, 0.04])}, None, AnalysisOptions())
+    out = fake_analysis(fail_above=0.03)(model, {}, {"gamma": np.array([0.02, 0.04])}, None, AnalysisOptions(more=()))
     assert list(out) == [o.name for o in gait.OUTPUTS]
     assert all(out[o.name].dtype == np.dtype(o.dtype) for o in gait.OUTPUTS)
     assert out["extra_metric"].shape == (2, n_v)

@@ -117,6 +117,9 @@ def test_failed_search_is_a_status_not_a_number():
     out = analyse_grid(MODEL, {}, {"gamma": np.array([-0.01])}, continuation_axis=None)
     assert out["status"][0] != 0
     assert np.isnan(out["lambda_max"][0]) and np.all(np.isnan(out["fixed_point"][0]))
+    # Where (jaxwalk.analyses.failure, on by default): 1 + the index of the phase and of the event.
+    assert out["failure_phase"][0] == 1 + MODEL.phases.index("single_support_early")
+    assert out["failure_event"][0] == 1 + MODEL.guards.index("stall") and out["failure_limit"][0] == 0
 
 
 @pytest.mark.parametrize("gamma, status, phase, guard", [

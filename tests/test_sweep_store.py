@@ -15,11 +15,11 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from jaxwalk import cli
+from jaxwalk import analyses, cli
 from jaxwalk.models import get_model
 from jaxwalk.sweep import loads_config, run_sweep
 from jaxwalk.sweep.dataset import build_dataset, write_zarr
-from jaxwalk.sweep.runner import analysis_options, check_results
+from jaxwalk.sweep.runner import analysis_options
 from jaxwalk.sweep.store import partial_path
 
 from tests.conftest import COMPASS_2D, ROOT, RUN_ATTRS
@@ -70,7 +70,7 @@ def test_streamed_chunks_equal_the_in_memory_dataset(tmp_path, fake_analysis):
 
     model = get_model("compass")
     full = fake_analysis(fail_above=15.0)(model, config.fixed, config.grid, "gamma", analysis_options(config))
-    results = check_results(full, config.shape, len(model.section_names))
+    results = analyses.check_block(full, config.shape, len(model.section_names), analyses.active(config))
     options = dict(json.loads(opened(path).attrs["analysis_options"]))
     reference = write_zarr(build_dataset(config, model, results, options=options), tmp_path / "m" / "grid2d.zarr")
     assert_same_dataset(opened(path), opened(reference))

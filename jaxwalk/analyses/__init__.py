@@ -95,11 +95,13 @@ def template(config, n_v: int) -> dict[str, np.ndarray]:
     return schema.template(outputs(act), config.shape, sizes(act, n_v))
 
 
-def variables(config, dims: tuple[str, ...], results: Mapping[str, np.ndarray], units: Mapping[str, str]) -> dict[str, tuple]:
-    """Every dataset variable of the active analyses (``{name: (dims, values, attrs)}``)."""
+def variables(config, dims: tuple[str, ...], results: Mapping[str, np.ndarray], units: Mapping[str, str],
+              model=None) -> dict[str, tuple]:
+    """Every dataset variable of the active analyses (``{name: (dims, values, attrs)}``);
+    ``model``: the walker (:meth:`Analysis.variables`)."""
     out = {}
     for a, resolved in active(config):
-        out.update(a.variables(dims, results, resolved, units))
+        out.update(a.variables(dims, results, resolved, units, model))
     return out
 
 

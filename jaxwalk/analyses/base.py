@@ -183,8 +183,9 @@ class Analysis:
         return schema.blank(arrays, self.outputs(resolved), status != 0)
 
     def variables(self, dims: tuple[str, ...], results: Mapping[str, np.ndarray], resolved: Any,
-                  units: Mapping[str, str]) -> dict[str, tuple]:
-        """Its dataset variables (``{name: (dims, values, attrs)}``)."""
+                  units: Mapping[str, str], model=None) -> dict[str, tuple]:
+        """Its dataset variables (``{name: (dims, values, attrs)}``); ``model``: the
+        walker, for attributes that name its parts (``None``: not known)."""
         return schema.variables(self.outputs(resolved), dims, results, resolved, units)
 
     def gradient(self, quantity: str, model, names: tuple[str, ...], solver, newton) -> Callable:

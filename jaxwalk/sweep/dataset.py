@@ -75,7 +75,7 @@ def build_dataset(
         options: every setting the analysis ran with, defaults included (JSON-able).
     """
     created = created or _dt.datetime.now(_dt.timezone.utc)
-    data_vars = analyses.variables(config, config.dims, results, output_units(model))
+    data_vars = analyses.variables(config, config.dims, results, output_units(model), model)
     attrs = dataset_attributes(config, model, command=command, created=created, options=options)
     return xr.Dataset(data_vars, coords=coordinates(config, model), attrs=attrs)
 
