@@ -383,6 +383,28 @@ def test_curves_are_readable_on_white_and_failure_rows_named():
     assert labels == [f"{v:.3g}" for v in ds.m_h.values]  # one row per curve, named by its value
 
 
+def test_legends_say_where_the_failed_steps_failed():
+    """With the failure variables (jaxwalk.analyses.failure) a failure status's legend entry
+    names the event, phase and limit where its points' steps failed most often ("mostly"
+    unless all did), in heatmaps and line plots alike; a status with no failed step
+    (no convergence) names none; legend columns make room for the longer labels."""
+    ds = synthetic(GRID_2D, failures=three_failures)
+    model = get_model("compass")
+    status = ds["status"].values
+    code = lambda names, name: names.index(name) + 1  # noqa: E731
+    phase = np.where(status != 0, code(model.phases, "single_support_early"), 0)
+    event = np.select([status == Status.FELL, status == Status.SCUFFING], [code(model.guards, "fall"), code(model.guards, "midstance")], 0)
+    event[np.argwhere(status == Status.FELL)[0][0], np.argwhere(status == Status.FELL)[0][1]] = code(model.guards, "swing_range")
+    ds["failure_phase"].values[...] = phase
+    ds["failure_event"].values[...] = event
+    heat = legend_texts(heatmap_figure(ds, "lambda_max", choose_layout(ds, "heatmap")))
+    lines = legend_texts(lines_figure(ds, "lambda_max", choose_layout(ds, "lines", x="gamma", y="m_h")))
+    for texts in (heat, lines):
+        assert any(t.startswith("fell (") and t.endswith(": mostly fall in single support early") for t in texts), texts
+        assert any(t.startswith("scuffing (") and t.endswith(": midstance in single support early") for t in texts)
+        assert any(t.startswith("no convergence (") and ":" not in t for t in texts)
+
+
 def test_a_long_axis_label_wraps_without_breaking_its_units():
     """A parameter description longer than a figure's width goes on two lines,
     and a short parenthesis (units such as "(M g L)") stays whole; a short label

@@ -25,10 +25,12 @@ import numpy as np
 import xarray as xr
 
 from jaxwalk.plot import loci
-from jaxwalk.plot.labels import STABILITY_LIMIT, UNSTABLE, axis_label, figure_title, value_text, variable_label
+from jaxwalk.plot.labels import (
+    STABILITY_LIMIT, UNSTABLE, axis_label, figure_title, legend_columns, value_text, variable_label,
+)
 from jaxwalk.plot.layout import Layout, panel_views
 from jaxwalk.plot.scale import use_log_scale
-from jaxwalk.plot.statuses import failure_codes, legend_label, status_color, status_names
+from jaxwalk.plot.statuses import failure_causes, failure_codes, legend_label, status_color, status_names
 from jaxwalk.status import Status
 
 #: Hatch of unstable gaits; its lines are drawn in :data:`HATCH_COLOR`.
@@ -110,7 +112,7 @@ def heatmap_figure(ds: xr.Dataset, name: str, layout: Layout):
     if not finite.size:
         handles.insert(0, _patch("white", "no gait found anywhere on this view", edge="none"))
     if handles:
-        fig.legend(handles=handles, loc="outside lower center", ncols=min(len(handles), 3), fontsize="small", frameon=False)
+        fig.legend(handles=handles, loc="outside lower center", ncols=legend_columns(handles), fontsize="small", frameon=False)
     return fig
 
 
@@ -209,7 +211,8 @@ def _legend_handles(ds: xr.Dataset, counts: dict[int, int], contour: bool, unsta
         handles.append(Line2D([], [], color="k", linewidth=1.6, label=STABILITY_LIMIT))
     if unstable:
         handles.append(_patch("white", UNSTABLE, edge=HATCH_COLOR, hatch=HATCH))
-    names = status_names(ds["status"])
+    names, causes = status_names(ds["status"]), failure_causes(ds)
     for code in sorted(counts):
-        handles.append(_patch(status_color(code), legend_label(names.get(code, str(code)), counts[code])))
+        label = legend_label(names.get(code, str(code)), counts[code], cause=causes.get(code))
+        handles.append(_patch(status_color(code), label))
     return handles

@@ -98,3 +98,14 @@ def fixed_parameters_text(ds: xr.Dataset, max_chars: int = 110) -> str:
     if not parts:
         text = "all other parameters at the model's defaults"
     return text if len(text) <= max_chars else text[: max_chars - 3] + "..."
+
+
+#: Characters of legend text a row of a figure's bottom legend holds (an 8-inch
+#: figure at the legend's small font, with the markers).
+LEGEND_ROW_CHARS = 110
+
+
+def legend_columns(handles, most: int = 3) -> int:
+    """Columns of a bottom legend: as many as its longest label leaves room for, at most ``most``."""
+    longest = max((len(h.get_label()) for h in handles), default=1)
+    return max(1, min(most, len(handles), LEGEND_ROW_CHARS // max(longest, 1)))

@@ -18,10 +18,12 @@ import math
 import numpy as np
 import xarray as xr
 
-from jaxwalk.plot.labels import STABILITY_LIMIT, UNSTABLE, axis_label, figure_title, value_text, variable_label
+from jaxwalk.plot.labels import (
+    STABILITY_LIMIT, UNSTABLE, axis_label, figure_title, legend_columns, value_text, variable_label,
+)
 from jaxwalk.plot.layout import Layout, panel_views
 from jaxwalk.plot.scale import use_log_scale
-from jaxwalk.plot.statuses import failure_codes, legend_label, status_marker, status_names
+from jaxwalk.plot.statuses import failure_causes, failure_codes, legend_label, status_marker, status_names
 from jaxwalk.status import Status
 
 #: Most curves in one panel; a longer curve axis is shown at this many evenly spaced values.
@@ -111,7 +113,7 @@ def lines_figure(ds: xr.Dataset, name: str, layout: Layout):
         fig.legend(handles=curve_handles, loc="outside right center", fontsize="small", title=title, title_fontsize="small")
     keys = _key_handles(ds, name, counts, unstable_any, lam_known, subset=len(picked) < n_y)
     if keys:
-        fig.legend(handles=keys, loc="outside lower center", ncols=min(len(keys), 3), fontsize="small", frameon=False)
+        fig.legend(handles=keys, loc="outside lower center", ncols=legend_columns(keys), fontsize="small", frameon=False)
     return fig
 
 
@@ -170,7 +172,8 @@ def _key_handles(ds: xr.Dataset, name: str, counts: dict[int, int], unstable: bo
         handles.append(Line2D([], [], marker="o", markersize=3, color="0.3", linestyle="none", label=r"stable gait ($\lambda_{\max} < 1$)"))
     if unstable:
         handles.append(Line2D([], [], marker="o", markersize=4, markerfacecolor="white", markeredgecolor="0.3", linestyle="none", label=UNSTABLE))
-    names = status_names(ds["status"])
+    names, causes = status_names(ds["status"]), failure_causes(ds)
     for code in sorted(counts):
-        handles.append(Line2D([], [], marker=status_marker(code), color="0.2", linestyle="none", label=legend_label(names.get(code, str(code)), counts[code], shown=subset)))
+        label = legend_label(names.get(code, str(code)), counts[code], shown=subset, cause=causes.get(code))
+        handles.append(Line2D([], [], marker=status_marker(code), color="0.2", linestyle="none", label=label))
     return handles

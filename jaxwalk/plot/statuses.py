@@ -89,7 +89,35 @@ def status_marker(code: int) -> str:
     return STATUS_MARKERS.get(int(code), "d")
 
 
-def legend_label(name: str, count: int, shown: bool = False) -> str:
+def legend_label(name: str, count: int, shown: bool = False, cause: str | None = None) -> str:
     """``"fell (12 points)"``: the count says how much of the grid a status covers
-    (``"fell (12 points shown)"`` when the figure shows only part of the grid)."""
-    return f"{name} ({count} point{'s' if count != 1 else ''}{' shown' if shown else ''})"
+    (``"fell (12 points shown)"`` when the figure shows only part of the grid);
+    ``cause`` (:func:`failure_causes`) follows after a colon."""
+    label = f"{name} ({count} point{'s' if count != 1 else ''}{' shown' if shown else ''})"
+    return f"{label}: {cause}" if cause else label
+
+
+#: The dataset variables that say where a failed gait search's step failed (:mod:`jaxwalk.analyses.failure`).
+FAILURE_VARIABLES = ("failure_phase", "failure_event", "failure_limit")
+
+
+def failure_causes(ds: xr.Dataset) -> dict[int, str]:
+    """``{status code: "slip in push off, stance friction"}``: for each failure status of
+    ``ds``, where its steps failed most often (event, phase, contact limit), ``"mostly "``
+    in front unless every point of that status failed there. Empty without the
+    :data:`FAILURE_VARIABLES`; a status whose steps name no event (``no convergence``) gets none."""
+    if not all(v in ds for v in FAILURE_VARIABLES):
+        return {}
+    status = ds["status"].values.ravel()
+    where = np.stack([ds[v].values.ravel() for v in FAILURE_VARIABLES], -1)
+    words = [ds[v].attrs.get("flag_meanings", "").split() for v in FAILURE_VARIABLES]
+    name = lambda k, i: (words[k][i] if 0 <= i < len(words[k]) else str(i)).replace("_", " ")  # noqa: E731
+    out = {}
+    for code in failure_codes(status):
+        found, counts = np.unique(where[status == code], axis=0, return_counts=True)
+        phase, event, limit = (int(i) for i in found[np.argmax(counts)])
+        if event == 0:
+            continue
+        text = f"{name(1, event)} in {name(0, phase)}" + (f", {name(2, limit)}" if limit else "")
+        out[code] = text if counts.max() == counts.sum() else f"mostly {text}"
+    return out
