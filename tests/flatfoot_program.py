@@ -10,6 +10,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
+from jaxwalk.gait import failure_cause
 from jaxwalk.models import get_model
 from jaxwalk.models.flatfoot.model import PAPER_PARAMS
 from jaxwalk.step import step_map
@@ -57,3 +58,15 @@ def newton(params, step, tangent, iterations=4):
             break
         v = v - jnp.linalg.solve(jac - eye, res)
     return v, jac, float(jnp.linalg.norm(res))
+
+
+@jax.jit
+def _failure_cause(params, res):
+    return failure_cause(MODEL, params, res.status, res.phase, res.guard, res.y, res.ctx)
+
+
+def failure_names(params, res):
+    """``(phase, guard, limit)`` names of where a failed step failed (``jaxwalk.gait.failure_cause``,
+    what a gait search keeps and a sweep writes); ``limit`` ``None`` where none is at its edge."""
+    phase, guard, limit = (int(i) for i in _failure_cause(params, res))
+    return MODEL.phases[phase], MODEL.guards[guard], MODEL.limits[limit] if limit >= 0 else None

@@ -21,7 +21,6 @@ import numpy as np
 import pytest
 
 from jaxwalk import mechanics
-from jaxwalk.gait import failure_cause
 from jaxwalk.models import get_model
 from jaxwalk.models.flatfoot import clearance as cl
 from jaxwalk.models.flatfoot import events as ev
@@ -32,7 +31,8 @@ from jaxwalk.models.flatfoot.model import HIP_SPRING_PARAMS, PAPER_PARAMS, SHOE_
 from jaxwalk.simulate import AFTER_EVENT, BEFORE_EVENT, record_walk
 from jaxwalk.status import Status
 from jaxwalk.stepdown import StepDownOptions, h_max
-from tests.flatfoot_program import LEVEL as _LEVEL, NO_TANGENT as _NO_TANGENT, STEP_PROGRAM, newton as _newton, with_params as _with
+from tests.flatfoot_program import LEVEL as _LEVEL, NO_TANGENT as _NO_TANGENT, STEP_PROGRAM, failure_names, newton as _newton
+from tests.flatfoot_program import with_params as _with
 
 MODEL = get_model("flatfoot")
 
@@ -433,24 +433,12 @@ def test_a_guard_that_just_fired_hides_no_other_crossing(params, step_fn):
     assert int(res.n_events) == 11 and 3.0 < float(res.time) < 4.0
 
 
-@jax.jit
-def _failure_cause(params, res):
-    """``(phase, guard, limit)`` names of a failed step (``jaxwalk.gait.failure_cause``, what a gait search keeps)."""
-    return failure_cause(MODEL, params, res.status, res.phase, res.guard, res.y, res.ctx)
-
-
-def _cause_names(params, res):
-    phase, guard, limit = (int(i) for i in _failure_cause(params, res))
-    return MODEL.phases[phase], MODEL.guards[guard], MODEL.limits[limit] if limit >= 0 else None
-
-
 def test_a_low_friction_coefficient_slips(params, step_fn, fixed_point):
-    """The stance foot's friction cone, and the cause a gait search reports: entering
-    locked swing the stance foot needs 2.9 times what mu = 0.05 gives."""
+    """Entering locked swing the stance foot needs 2.9 times what mu = 0.05 gives: named as such."""
     p = _with(params, mu=0.05)
     _, res = step_fn(fixed_point[0], p)
     assert int(res.status) == Status.SLIPPING
-    assert _cause_names(p, res) == ("locked_swing", "slip", "stance_friction")
+    assert failure_names(p, res) == ("locked_swing", "slip", "stance_friction")
     use = dict(zip(MODEL.limits, np.asarray(MODEL.limit_use(res.y, p, res.phase, res.ctx))))
     assert use["stance_friction"] > 1.0 and use["cop_toe"] < 1.0 and use["cop_heel"] < 1.0
 
@@ -475,7 +463,7 @@ def test_a_stiff_ankle_rolls_the_flat_stance_foot_at_its_located_toe_edge(params
     assert walk.status == Status.FOOT_ROLLING and abs(use["cop_toe"] - 1.0) < 1e-9
     assert use["cop_heel"] < 0.0 and use["stance_friction"] < 1.0
     # What a gait search reports of it: the phase, the event, the limit at its edge.
-    assert _cause_names(p, res) == ("heel_pivot", "foot_roll", "cop_toe")
+    assert failure_names(p, res) == ("heel_pivot", "foot_roll", "cop_toe")
     # The documented hip-spring gait itself (k = 0.03) keeps its centre of pressure inside.
     p = _with(params, **HIP_SPRING_PARAMS)
     assert int(step_fn(MODEL.initial_guess(p), p)[1].status) == Status.OK

@@ -8,10 +8,15 @@ its own colour. The fixed point is a white-edged black cross.
 
 from __future__ import annotations
 
+import textwrap
+
 import numpy as np
 import xarray as xr
 
 from jaxwalk.status import Status
+
+#: Characters per line of the title (the figure is about 7.5 inches wide at the title's 9 pt).
+TITLE_CHARS = 100
 
 
 def rgb_image(outcome: np.ndarray, steps: np.ndarray, limit: int):
@@ -68,7 +73,8 @@ def save_basin(ds: xr.Dataset, path) -> None:
     ax.set_ylabel(ds.attrs["y_coordinate"])
     held = [n for n in names if n not in (ds.attrs["x_coordinate"], ds.attrs["y_coordinate"])]
     note = f"; {', '.join(held)} at the fixed point" if held else ""
-    ax.set_title(f"{ds.attrs['model']} basin, {ds.attrs['fixed_parameters']}\n"
-                 f"at most {ds.attrs['steps_limit']} steps, tol {ds.attrs['tol']:g}{note}", fontsize=9)
+    # A walker with many parameters (the flat-foot walker's twenty) needs several lines.
+    head = textwrap.fill(f"{ds.attrs['model']} basin, {ds.attrs['fixed_parameters']}", TITLE_CHARS)
+    ax.set_title(f"{head}\nat most {ds.attrs['steps_limit']} steps, tol {ds.attrs['tol']:g}{note}", fontsize=9)
     fig.savefig(path, dpi=130)
     plt.close(fig)

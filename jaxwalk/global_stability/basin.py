@@ -128,6 +128,7 @@ def cycle_distance(v: Array, targets: Array, scale: Array) -> Array:
     return jnp.min(jnp.where(jnp.all(jnp.isfinite(targets), axis=-1), d, jnp.inf))
 
 
+@program_cache.serializable
 class Fate(NamedTuple):
     """Where a start went (batch shape in front).
 
