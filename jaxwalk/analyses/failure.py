@@ -7,8 +7,10 @@ A status says what ended a point's gait search (``slipping``, ``foot_rolling``,
 * ``failure_phase`` ``S``: the phase in which that step stopped;
 * ``failure_event`` ``S``: the event (guard) that ended it: a failure guard
   (``slip``, ``foot_roll``, ``fall``, ...) or a transition whose reset failed
-  (``heel_strike`` for an impact impulse outside its friction cone, ``toe_off``
-  for a phase entered already beyond one of its limits);
+  (``heel_strike`` for an impact impulse outside its friction cone; ``unlock``
+  or ``toe_off`` for a phase entered already beyond one of its limits: the
+  shoe walker at r = 0.755 re-enters push-off with its knee released beyond
+  the stance foot's cone);
 * ``failure_limit`` ``S``: for the flat-foot walker's ``slip`` and ``foot_roll``
   events, the contact limit at its edge there (``stance_friction``,
   ``heel_friction``, ``cop_toe``, ``cop_heel``; :meth:`jaxwalk.walker.Walker.limit_use`).
