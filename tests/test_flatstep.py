@@ -56,6 +56,7 @@ def test_flat_equals_nested_step_map(simplest_maps):
     (v_n, r_n), j_n = out["nested"]
     assert int(r_f.status) == int(r_n.status) == Status.OK
     assert int(r_f.n_events) == int(r_n.n_events)
+    assert int(r_f.guard) == int(r_n.guard) == SIMPLEST.guards.index("heel_strike")  # the event that ended the step
     np.testing.assert_allclose(v_f, v_n, atol=1e-8)
     np.testing.assert_allclose(r_f.time, r_n.time, atol=1e-7)
     np.testing.assert_allclose(j_f, j_n, rtol=1e-5, atol=1e-5)
@@ -107,6 +108,10 @@ def test_flat_vmap_equals_single_runs_and_failures_are_statuses():
         np.testing.assert_allclose(single.lambda_max, batch.lambda_max[i], atol=1e-6)
     nested = jax.jit(lambda g: search(g, NESTED))(gammas[-1])
     assert int(batch.status[-1]) == int(nested.status) != Status.OK
+    # ... in the same phase, at the same event (GaitStats: where the failed step failed).
+    for field in ("failure_phase", "failure_guard", "failure_limit"):
+        assert int(getattr(batch.stats, field)[-1]) == int(getattr(nested.stats, field))
+    assert int(nested.stats.failure_guard) == SIMPLEST.guards.index("stall")
     assert np.isnan(batch.lambda_max[-1])
 
 

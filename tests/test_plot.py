@@ -405,6 +405,18 @@ def test_legends_say_where_the_failed_steps_failed():
         assert any(t.startswith("no convergence (") and ":" not in t for t in texts)
 
 
+def test_the_attractor_view_names_no_cause_of_the_gait_search():
+    """Figures of attractor variables read the attractor walk's statuses; the failure
+    variables say where the gait search failed, so that view leaves them out."""
+    from jaxwalk.plot.attractors import view_for
+    from jaxwalk.plot.statuses import FAILURE_VARIABLES
+
+    ds = synthetic(GRID_2D, failures=three_failures)
+    ds = ds.assign(attractor_status=ds["status"], attractor_lambda_max=ds["lambda_max"])
+    assert all(v in view_for(ds, "lambda_max") for v in FAILURE_VARIABLES)
+    assert not any(v in view_for(ds, "attractor_period") for v in FAILURE_VARIABLES)
+
+
 def test_a_long_axis_label_wraps_without_breaking_its_units():
     """A parameter description longer than a figure's width goes on two lines,
     and a short parenthesis (units such as "(M g L)") stays whole; a short label
