@@ -197,7 +197,7 @@ def close_phase(
     """
     in_progress = jnp.asarray(Status.IN_PROGRESS, jnp.int8)
     guards = model.guard_values(t_event, y_event, params, phase, ctx) + offsets
-    which = jnp.argmin(guards)
+    which = model.event_guard(guards, opts.start_guard_margin)
     tr = model.on_event(which, t_event, y_event, params, phase, ctx)
     step_status = jnp.where(tr.step_done & (tr.status == in_progress), jnp.int8(Status.OK), tr.status)
     n_events = n_events + 1

@@ -97,6 +97,10 @@ class Walker:
             limits' margins (zero where one of them reaches its edge): where a
             step fails by one of them, the limit at its edge is the one named
             (:attr:`jaxwalk.gait.GaitStats.failure_limit`).
+        failure_guards: names of the guards that end a step by a failure, in
+            order of precedence: where an event at a phase's start finds several
+            guards below zero, the first of these among them is the one named
+            (:meth:`event_guard`).
         ground_next: index in ``ctx`` of the ground height at the next touchdown
             (the step-down capability), or ``None``.
         lockstep_batch: configurations one worker thread runs together in a grid analysis.
@@ -118,6 +122,7 @@ class Walker:
     n_constraints: int = 0
     limits: tuple[str, ...] = ()
     limit_guards: tuple[str, ...] = ()
+    failure_guards: tuple[str, ...] = ()
     #: Units of lengths and times in outputs (period, step length, speed).
     units: dict = {"length": "1", "time": "1"}
     #: Configurations (or continuation lines) one worker thread advances together,
@@ -243,6 +248,26 @@ class Walker:
     def guard_values(self, t: Float[Array, ""], y: Float[Array, "2*n_q"], params: Params, phase: Int32[ArrayLike, ""], ctx: Float[Array, "n_ctx"]) -> Float[Array, "n_guards"]:
         """*model* ``(len(guards),)``, positive while the phase goes on."""
         raise NotImplementedError
+
+    def event_guard(self, guards: Float[Array, "n_guards"], margin: float) -> Int32[Array, ""]:
+        """Index of the guard an event at guard values ``guards`` names.
+
+        A located crossing has one guard at zero (to root-finding accuracy) and
+        the rest positive or tied with it (the flat-foot heel's ``heel_strike``
+        and ``scuff`` with ``scuff_tol = 0``): the least guard, the first on a
+        tie, is the one. An event at a phase's start (a step from a state the
+        walker cannot hold, as Newton's iterates and a basin's starts can be) may
+        find several guards below ``-margin`` (``SolverOptions.start_guard_margin``),
+        and the least of them is then a matter of scale, not of cause: a stance
+        foot whose contact pulls is outside its friction cone too, often by more.
+        There the first of :attr:`failure_guards` below ``-margin`` is named.
+        """
+        least = jnp.argmin(guards)
+        if not self.failure_guards:
+            return least
+        ranked = jnp.asarray([self.guards.index(name) for name in self.failure_guards])
+        failing = guards[ranked] < -margin
+        return jnp.where(jnp.any(failing), ranked[jnp.argmax(failing)], least)
 
     def on_event(self, guard: Int32[ArrayLike, ""], t: Float[Array, ""], y: Float[Array, "2*n_q"], params: Params, phase: Int32[ArrayLike, ""],
                  ctx: Float[Array, "n_ctx"]) -> Transition:

@@ -113,6 +113,7 @@ class FlatFootWalker(Walker):
     guards = events.GUARD_NAMES
     limits = contact_limits.LIMIT_NAMES
     limit_guards = ("slip", "foot_roll")
+    failure_guards = tuple(events.GUARD_NAMES[g] for g in events.FAILURES)
     context = ph.CONTEXT
     ground_next = ph.C["ground_next"]
     section_names = ("psi", "psi_dot")
