@@ -13,7 +13,6 @@ status instead of raising.
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 from typing import NamedTuple
 

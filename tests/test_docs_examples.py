@@ -10,7 +10,6 @@ cluster command likewise. Outputs go to a temporary directory.
 
 from __future__ import annotations
 
-import os
 import re
 import shlex
 from pathlib import Path

@@ -27,7 +27,7 @@ from jaxwalk.models.flatfoot import events as ev
 from jaxwalk.models.flatfoot import forces as fo
 from jaxwalk.models.flatfoot import geometry as geo
 from jaxwalk.models.flatfoot import phases as ph
-from jaxwalk.models.flatfoot.model import PAPER_PARAMS, SHOE_PARAMS
+from jaxwalk.models.flatfoot.model import HIP_SPRING_PARAMS, PAPER_PARAMS, SHOE_PARAMS
 from jaxwalk.simulate import AFTER_EVENT, BEFORE_EVENT, record_walk
 from jaxwalk.status import Status
 from jaxwalk.stepdown import StepDownOptions, h_max
