@@ -181,10 +181,10 @@ def _attempt(model, params, opts: SolverOptions, solver, controller, c: _Carry, 
     return _Attempt(t1, y1, f1, g1, keep, sg(t_next1 - t_next0), (e1, e2), dense)
 
 
-def _close_phase(model: Walker, params, opts: SolverOptions, c: _Carry, go_on: _Carry, t_ev, y_ev, result) -> _Carry:
-    """A lane whose phase ended at ``(t_ev, y_ev)`` with diffrax ``result``: the
-    reset, the statuses, and a fresh start of the next phase from ``go_on``."""
-    end = close_phase(model, params, t_ev, y_ev, result, c.phase, c.ctx, c.n_events, opts, c.offsets)
+def _close_phase(model: Walker, params, opts: SolverOptions, c: _Carry, go_on: _Carry, t_ev, y_ev, result, at_start) -> _Carry:
+    """A lane whose phase ended at ``(t_ev, y_ev)`` with diffrax ``result`` (``at_start``:
+    where it started): the reset, the statuses, and a fresh start of the next phase from ``go_on``."""
+    end = close_phase(model, params, t_ev, y_ev, result, c.phase, c.ctx, c.n_events, opts, c.offsets, at_start)
     g, offsets = _phase_start(model, params, end.t_event, end.y_next, end.phase_next, end.ctx_next, opts)
     one = jnp.ones((), c.t.dtype)
     return go_on._replace(
@@ -264,7 +264,7 @@ def _advance(model: Walker, params, opts: SolverOptions, c: _Carry) -> _Carry:
         guard=c.guard,
     )
 
-    close = lambda: _close_phase(model, params, opts, c, go_on, t_ev, y_ev, result)
+    close = lambda: _close_phase(model, params, opts, c, go_on, t_ev, y_ev, result, at_start)
     closed = jax.lax.cond(eqxi.unvmap_any(ended), close, lambda: go_on)
     return jax.tree_util.tree_map(lambda x, y: jnp.where(ended, x, y), closed, go_on)
 

@@ -301,19 +301,21 @@ def failure_cause(model: Walker, params, status, phase, guard, y, ctx) -> tuple[
     (:class:`GaitStats`). ``NO_CONVERGENCE`` and ``OK`` are not a step's failure: all -1.
 
     The limit is read, not guessed: a limit guard is the least of its limits'
-    margins, so at its event the limit that ends the step is at its edge (use 1;
-    past it where the phase began beyond it) and the others are not: the largest
-    :meth:`~jaxwalk.walker.Walker.limit_use` names it. Where no limit applies
-    there or the contact does not push (every use inf or NaN), none is named.
+    margins (:attr:`~jaxwalk.walker.Walker.limit_guards`), so at its event the
+    limit that ends the step is at its edge (use 1; past it where the phase
+    began beyond it): the largest :meth:`~jaxwalk.walker.Walker.limit_use` among
+    that guard's limits names it (a step that starts beyond several limits may
+    be past others' edges too, and is named by its guard). Where none of them
+    applies there or the contact does not push (every use inf or NaN), none is named.
     """
     step_failed = (status != Status.OK) & (status != Status.NO_CONVERGENCE)
     none = jnp.full((), -1, jnp.int32)
     limit = none
     if model.limit_guards:
-        on_limits = jnp.isin(guard, jnp.asarray([model.guards.index(g) for g in model.limit_guards]))
+        owned = jnp.asarray([model.guards.index(g) for g in model.limit_guards]) == guard
         use = model.limit_use(y, params, phase, ctx)
-        use = jnp.where(jnp.isnan(use), -jnp.inf, use)  # NaN: the limit does not apply in this phase
-        named = on_limits & jnp.isfinite(jnp.max(use))
+        use = jnp.where(jnp.isnan(use) | ~owned, -jnp.inf, use)  # NaN: the limit does not apply in this phase
+        named = jnp.any(owned) & jnp.isfinite(jnp.max(use))
         limit = jnp.where(named, jnp.argmax(use), none)
     mark = lambda x: jnp.where(step_failed, x, none).astype(jnp.int32)
     return mark(phase), mark(guard), mark(limit)

@@ -143,7 +143,7 @@ def end_phase(model: Walker, params, t0, y0, phase, ctx, g0, solved, n_events, o
     y_event = jnp.where(at_start, y0, y_event)
     result = diffrax.RESULTS.where(at_start, diffrax.RESULTS.event_occurred, result)
     offsets = guard_offsets(g0, opts)
-    return close_phase(model, params, t_event, y_event, result, phase, ctx, n_events, opts, offsets)
+    return close_phase(model, params, t_event, y_event, result, phase, ctx, n_events, opts, offsets, at_start)
 
 
 class _PhaseLoop(NamedTuple):

@@ -133,7 +133,7 @@ class PhaseEnd(NamedTuple):
     Attributes:
         t_event: event time (the phase's start time where a guard was already past).
         y_event: ``(2 n_q,)`` state at the event, before the reset.
-        guard: int32 index of the smallest guard at the event (the one that fired).
+        guard: int32 index of the guard the event names (:meth:`~jaxwalk.walker.Walker.named_guard`).
         event_happened: bool, the phase ended with an event (not the time limit
             or a solver failure).
         y_next, phase_next, ctx_next: the state after the reset; the state at the
@@ -186,18 +186,19 @@ def guard_offsets(g0: Float[Array, "n_guards"], opts: SolverOptions) -> Float[Ar
 
 
 def close_phase(
-    model: Walker, params, t_event, y_event, result, phase, ctx, n_events, opts: SolverOptions, offsets=0.0
+    model: Walker, params, t_event, y_event, result, phase, ctx, n_events, opts: SolverOptions, offsets=0.0, at_start=False
 ) -> PhaseEnd:
     """The model's reset and the status rules for a phase that ended at ``(t_event, y_event)``.
 
     ``result`` is diffrax's: ``event_occurred`` (the reset follows), ``successful``
     (the phase's time limit: ``TIMEOUT``) or any other (``SOLVER_FAILED``). Shared by
     :func:`end_phase` and the flat engine (:mod:`jaxwalk.flatstep`). ``offsets``:
-    the phase's :func:`guard_offsets`, so the guard named is the one that crossed.
+    the phase's :func:`guard_offsets`, so the guard named is the one that crossed;
+    ``at_start``: the phase ended where it started (:meth:`~jaxwalk.walker.Walker.named_guard`).
     """
     in_progress = jnp.asarray(Status.IN_PROGRESS, jnp.int8)
     guards = model.guard_values(t_event, y_event, params, phase, ctx) + offsets
-    which = model.event_guard(guards, opts.start_guard_margin)
+    which = model.named_guard(guards, at_start)
     tr = model.on_event(which, t_event, y_event, params, phase, ctx)
     step_status = jnp.where(tr.step_done & (tr.status == in_progress), jnp.int8(Status.OK), tr.status)
     n_events = n_events + 1

@@ -93,14 +93,15 @@ class Walker:
         section_names: names of the independent section coordinates ``v``.
         n_constraints: number of constraint rows (active or not).
         limits: names of the contact limits :meth:`limit_use` measures (none by default).
-        limit_guards: names of the guards each of which is the least of several
-            limits' margins (zero where one of them reaches its edge): where a
-            step fails by one of them, the limit at its edge is the one named
+        limit_guards: for each of :attr:`limits`, the name of the guard whose
+            margin it is part of (a guard may be the least of several limits'
+            margins, zero where one of them reaches its edge): where a step
+            fails by that guard, the one of its limits at its edge is named
             (:attr:`jaxwalk.gait.GaitStats.failure_limit`).
         failure_guards: names of the guards that end a step by a failure, in
-            order of precedence: where an event at a phase's start finds several
-            guards below zero, the first of these among them is the one named
-            (:meth:`event_guard`).
+            order of precedence: where a phase ends at its start (a guard below
+            ``-start_guard_margin``) with one or more of these below zero, the
+            first of them is the one named (:meth:`named_guard`).
         ground_next: index in ``ctx`` of the ground height at the next touchdown
             (the step-down capability), or ``None``.
         lockstep_batch: configurations one worker thread runs together in a grid analysis.
@@ -249,25 +250,25 @@ class Walker:
         """*model* ``(len(guards),)``, positive while the phase goes on."""
         raise NotImplementedError
 
-    def event_guard(self, guards: Float[Array, "n_guards"], margin: float) -> Int32[Array, ""]:
+    def named_guard(self, guards: Float[Array, "n_guards"], at_start: Bool[ArrayLike, ""]) -> Int32[Array, ""]:
         """Index of the guard an event at guard values ``guards`` names.
 
-        A located crossing has one guard at zero (to root-finding accuracy) and
-        the rest positive or tied with it (the flat-foot heel's ``heel_strike``
-        and ``scuff`` with ``scuff_tol = 0``): the least guard, the first on a
-        tie, is the one. An event at a phase's start (a step from a state the
-        walker cannot hold, as Newton's iterates and a basin's starts can be) may
-        find several guards below ``-margin`` (``SolverOptions.start_guard_margin``),
-        and the least of them is then a matter of scale, not of cause: a stance
-        foot whose contact pulls is outside its friction cone too, often by more.
-        There the first of :attr:`failure_guards` below ``-margin`` is named.
+        A located crossing names its least guard, the one at zero (the first on a
+        tie: the flat-foot heel's ``heel_strike`` and ``scuff`` are equal there with
+        ``scuff_tol = 0``). An event at a phase's start (``at_start``: a guard was
+        already below ``-start_guard_margin``, as where a step starts from a state
+        the walker cannot hold: Newton's iterates, a basin's starts) may find
+        several guards below zero, and the least of them is then a matter of
+        scale, not of cause: a stance contact that pulls is outside its friction
+        cone too, often by more. There the first of :attr:`failure_guards` below
+        zero is named. ``guards`` include the phase's :func:`~jaxwalk.stepbase.guard_offsets`.
         """
         least = jnp.argmin(guards)
         if not self.failure_guards:
             return least
         ranked = jnp.asarray([self.guards.index(name) for name in self.failure_guards])
-        failing = guards[ranked] < -margin
-        return jnp.where(jnp.any(failing), ranked[jnp.argmax(failing)], least)
+        failing = guards[ranked] < 0.0
+        return jnp.where(at_start & jnp.any(failing), ranked[jnp.argmax(failing)], least)
 
     def on_event(self, guard: Int32[ArrayLike, ""], t: Float[Array, ""], y: Float[Array, "2*n_q"], params: Params, phase: Int32[ArrayLike, ""],
                  ctx: Float[Array, "n_ctx"]) -> Transition:

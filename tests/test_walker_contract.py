@@ -97,6 +97,24 @@ def test_declared_names(model):
         assert model.context[model.ground_next] == "ground_next"
     else:
         assert "ground_next" not in model.context
+    # Guard names the engine looks up at trace time: a misspelt one is caught here.
+    assert set(model.failure_guards) <= set(model.guards) and set(model.limit_guards) <= set(model.guards)
+    assert len(model.limit_guards) in (0, len(model.limits))
+
+
+def test_an_event_names_its_least_guard_but_at_a_start_its_first_failure():
+    """``Walker.named_guard`` on plain values (the flat-foot walker's order of failures)."""
+    model = MODELS["flatfoot"]
+    g = lambda **values: jnp.asarray([values.get(name, 1.0) for name in model.guards])
+    index = lambda name: model.guards.index(name)
+    at_heel_strike = g(heel_strike=-1e-13, scuff=-1e-13)  # a located crossing: a tie with scuff_tol = 0
+    assert int(model.named_guard(at_heel_strike, False)) == index("heel_strike")
+    pulls = g(running=-0.13, slip=-0.30, foot_roll=-0.05)  # the defaults with k = 0.2 at the section
+    assert int(model.named_guard(pulls, True)) == index("running")
+    assert int(model.named_guard(pulls, False)) == index("slip")
+    transition_first = g(unlock=-0.5, foot_roll=-0.01)  # a failure due beside a lower transition guard
+    assert int(model.named_guard(transition_first, True)) == index("foot_roll")
+    assert int(model.named_guard(g(unlock=-0.5), True)) == index("unlock")  # no failure: the least guard
 
 
 def test_shapes_against_declared_names(model, start):

@@ -112,7 +112,7 @@ class FlatFootWalker(Walker):
     phases = ph.PHASE_NAMES
     guards = events.GUARD_NAMES
     limits = contact_limits.LIMIT_NAMES
-    limit_guards = ("slip", "foot_roll")
+    limit_guards = ("slip", "slip", "foot_roll", "foot_roll")  # of stance_friction, heel_friction, cop_toe, cop_heel
     failure_guards = tuple(events.GUARD_NAMES[g] for g in events.FAILURES)
     context = ph.CONTEXT
     ground_next = ph.C["ground_next"]

@@ -10,7 +10,8 @@ a terminal event (direction: falling through zero) for every guard that can fire
 in it (:func:`tests.reference.flatfoot.guards.active`); the first to fire is the
 event, and :func:`tests.reference.flatfoot.resets.on_event` gives the next phase.
 As in the engine, a guard already below ``-START_GUARD_MARGIN`` when a phase
-starts is an event at once. The swing foot's height extrema are non-terminal
+starts is an event at once, named by the first failure in the order of
+``guards.FAILURES`` below zero. The swing foot's height extrema are non-terminal
 events (they change no phase): the minima give ``min_clearance``, and every
 extremum counts towards the step's event limit as it does in the engine.
 """
@@ -112,6 +113,13 @@ def solve_phase(t0: float, y0: np.ndarray, p, phase: int, ctx: dict, rtol=RTOL, 
     return None, terminal[i][0], t_ev, sol.y_events[i][0], sorted(found, key=lambda e: e[0])
 
 
+def _named_at_start(g0: np.ndarray) -> str:
+    """The guard an event at a phase's start names: the first failure (in
+    ``guards.FAILURES``' order) below zero, else the least guard."""
+    failing = [name for name, _ in gd.FAILURES if g0[gd.G[name]] < 0.0]
+    return failing[0] if failing else gd.NAMES[int(np.argmin(g0))]
+
+
 def run_step(y: np.ndarray, phase: int, ctx: dict, p: Mapping[str, float], rtol=RTOL, atol=ATOL) -> dict:
     """One step from a full state; a dict with ``status`` (``"ok"`` or a status name),
     ``y`` (after the swap), ``ctx``, ``time``, ``length``, ``work`` (hip and ankle actuators), ``n_events``,
@@ -120,7 +128,7 @@ def run_step(y: np.ndarray, phase: int, ctx: dict, p: Mapping[str, float], rtol=
     while True:
         g0 = gd.guard_values(t, y, p, phase, ctx)
         if g0.min() < -START_GUARD_MARGIN:
-            status, name, t_ev, y_ev, extrema = None, gd.NAMES[int(np.argmin(g0))], t, y, []
+            status, name, t_ev, y_ev, extrema = None, _named_at_start(g0), t, y, []
         else:
             status, name, t_ev, y_ev, extrema = solve_phase(t, y, p, phase, ctx, rtol, atol)
         n_events += len(extrema)
