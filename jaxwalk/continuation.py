@@ -3,8 +3,9 @@
 From one fixed initial guess Newton's method loses a gait far from where the
 guess was made (for the simplest walker, above a slope of about 0.0135). Along
 the *continuation axis* we instead start each grid point from its converged
-neighbour: the sweep begins at the grid point nearest the model's default
-value of that parameter (where the model's initial guess is valid), walks up
+neighbour: the sweep begins at the grid point nearest the value of that parameter at
+which the model's initial guess was made (its default, or that of the
+documented gait the guess is: :meth:`jaxwalk.walker.Walker.seed_value`), walks up
 the axis, then walks down from the same seed. A point whose search fails starts
 the next one from the last converged gait (or from the model's guess if there
 is none yet). All other axes are batched with ``vmap``.

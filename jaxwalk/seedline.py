@@ -1,12 +1,13 @@
 """Seed lines: where continuation lines start, found by continuation along another axis.
 
 A sweep continued along axis A runs one line along A per point of the other
-axes, each started at its seed point (the A value nearest A's default) from the
-model's initial guess, a guess made for the model's *default* parameters. Far
+axes, each started at its seed point (the A value nearest the one the guess
+was made at, :meth:`jaxwalk.walker.Walker.seed_value`; most often A's default)
+from the model's initial guess. Far
 from them along another axis B (the flat-foot walker's foot length, say) that
 guess misses the gait and the whole line is lost. With ``[analysis] seed_axis
 = "B"`` a *seed line* first runs along B at A's seed value, itself continued
-from B's seed (the value nearest B's default) up then down, exactly as
+from B's seed (the B value nearest its seed value) up then down, exactly as
 :func:`jaxwalk.continuation.continue_along` walks any line; every A-line then
 starts its seed point from the seed line's gait at its B value (from the
 model's guess where the seed line failed there). With more than two axes
@@ -80,7 +81,7 @@ def seed_lines(model: Walker, fixed: Mapping[str, float], grid: Mapping[str, np.
     check_axes(grid, continuation_axis, seed_axis)
     axes = list(grid)
     a_values = np.asarray(grid[continuation_axis], np.float64)
-    a_seed = float(a_values[seed_index(a_values, model.param_specs[continuation_axis].default)])
+    a_seed = float(a_values[seed_index(a_values, model.seed_value(continuation_axis, fixed))])
     sub = {name: (np.array([a_seed]) if name == continuation_axis else np.asarray(values, np.float64))
            for name, values in grid.items()}
     params = {n: np.squeeze(v, axes.index(continuation_axis)) for n, v in parameter_grid(model, fixed, sub).items()}
@@ -90,7 +91,7 @@ def seed_lines(model: Walker, fixed: Mapping[str, float], grid: Mapping[str, np.
     moved = {n: np.moveaxis(v, k, -1) for n, v in params.items()}
     moved_shape = next(iter(moved.values())).shape
     rows = {n: v.reshape(-1, len(b_values)) for n, v in moved.items()}
-    seed_b = seed_index(b_values, model.param_specs[seed_axis].default)
+    seed_b = seed_index(b_values, model.seed_value(seed_axis, fixed))
     gaits = run_lines(model, rows, seed_b, options.solver, options.newton, options.chunk_size)
 
     def back(x):

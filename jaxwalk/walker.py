@@ -287,6 +287,27 @@ class Walker:
         """*model* a starting point for Newton's method, ``(len(section_names),)``."""
         raise NotImplementedError
 
+    def guess_made_at(self, params: Mapping[str, float]) -> Mapping[str, float]:
+        """Parameter values of the walker whose gait :meth:`initial_guess` gives at
+        ``params`` (those that differ from the defaults); by default none, the
+        guess being made for the defaults. Continuation starts nearest them
+        (:meth:`seed_value`)."""
+        return {}
+
+    def seed_value(self, name: str, fixed: Mapping[str, float]) -> float:
+        """Where a continuation along parameter ``name`` starts, for a walker whose
+        other parameters are ``fixed`` (defaults for the rest): the value of ``name``
+        at which the initial guess was made (:meth:`guess_made_at`), else its default.
+
+        Not simply the default: a model whose guess is chosen from several
+        documented gaits (the flat-foot walker: the paper's walker's, the shoe
+        walker's, ...) has each at its own parameters, and a line started far from
+        them starts from a guess made for another walker.
+        """
+        given = {**self.default_params(), **fixed}
+        made_at = self.guess_made_at({k: float(v) for k, v in given.items()})
+        return float(made_at.get(name, self.param_specs[name].default))
+
     def time_scale(self, params: Params) -> Array:
         """Characteristic time ``sqrt(l/g)``, used to size time limits."""
         return jnp.sqrt(1.0 / params.get("g", 1.0))

@@ -159,3 +159,46 @@ def test_bad_seed_axis(tmp_path, monkeypatch, capsys, analysis, fragment):
     captured = capsys.readouterr()
     assert captured.out == "" and captured.err.count("\n") == 1 and fragment in captured.err
     assert not (tmp_path / "res").exists()
+
+
+def test_a_line_starts_where_the_guess_was_made():
+    """Continuation starts nearest the parameters of the gait the model's guess is:
+    the default for a model with one guess; for the flat-foot walker, whose guess is
+    one of its documented gaits, that gait's own values (the paper's walker's
+    P = 0.0076, not the shoe walker's default 0.045: a (k, P) map of the paper's
+    walker seeded at P = 0.045 would start its lines from the paper's gait 0.034
+    away in torque)."""
+    from jaxwalk.models.flatfoot.model import DOCUMENTED_GAITS, PAPER_PARAMS, SHOE_PARAMS
+
+    assert MODEL.seed_value("m_h", {}) == MODEL.param_specs["m_h"].default
+    assert MODEL.seed_value("gamma", {"m_h": 12.0}) == GAMMA0
+    flatfoot = get_model("flatfoot")
+    assert flatfoot.seed_value("P", PAPER_PARAMS) == PAPER_PARAMS["P"] == 0.0076
+    assert flatfoot.seed_value("P", {}) == SHOE_PARAMS["P"] == flatfoot.param_specs["P"].default
+    assert flatfoot.seed_value("l_f", PAPER_PARAMS) == flatfoot.param_specs["l_f"].default
+    defaults = {k: float(v) for k, v in flatfoot.default_params().items()}
+    for params, gait in DOCUMENTED_GAITS:
+        walker = {**defaults, **params}
+        assert flatfoot.guess_made_at(walker) is params
+        np.testing.assert_array_equal(np.asarray(flatfoot.initial_guess(flatfoot.default_params() | params)), gait)
+        for name, value in params.items():
+            assert flatfoot.seed_value(name, params) == value
+
+
+def test_a_grid_seeds_its_lines_at_the_guess_walker(monkeypatch):
+    """``analyse_grid`` hands the line program the seed index from ``seed_value``."""
+    seen = {}
+
+    def fake_run_lines(model, rows, seed, *args, **kwargs):
+        seen["seed"] = seed
+        raise RuntimeError("stop")
+
+    monkeypatch.setattr(G, "run_lines", fake_run_lines)
+    flatfoot = get_model("flatfoot")
+    from jaxwalk.models.flatfoot.model import PAPER_PARAMS
+
+    fixed = {k: v for k, v in PAPER_PARAMS.items() if k != "P"}
+    p_values = np.linspace(0.004, 0.011, 64)
+    with pytest.raises(RuntimeError, match="stop"):
+        G.analyse_grid(flatfoot, fixed, {"P": p_values}, "P", OPTIONS)
+    assert seen["seed"] == int(np.argmin(np.abs(p_values - 0.0076)))

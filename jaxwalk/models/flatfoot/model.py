@@ -67,6 +67,25 @@ SHOE_PARAMS = {**SWING_HIP_PARAMS, "k_hip": 0.12, "P": 0.045, "mu": 0.8}
 #: Its fixed point ``(psi, psi_dot)``, the gait of the defaults.
 SHOE_GAIT = (0.324519973953, -0.373398980250)
 
+#: The documented gaits, ``(parameters, fixed point)``, in the order :func:`_documented` numbers them.
+DOCUMENTED_GAITS = (
+    (PAPER_PARAMS, PAPER_GAIT),
+    (HIP_SPRING_PARAMS, HIP_SPRING_GAIT),
+    (PUSH_OFF_PARAMS, PUSH_OFF_GAIT),
+    (SWING_HIP_PARAMS, SWING_HIP_GAIT),
+    (SHOE_PARAMS, SHOE_GAIT),
+)
+
+
+def _documented(params):
+    """Index in :data:`DOCUMENTED_GAITS` of the gait nearest ``params`` (traced or plain floats)."""
+    push_off = params["ankle_push"] >= 0.5 * PUSH_OFF_PARAMS["ankle_push"]
+    swing_hip = params["hip_double_support"] <= 0.75
+    shoe = swing_hip & (params["mu"] <= 1.0)
+    hip_spring = params["k_hip"] >= 0.5 * HIP_SPRING_PARAMS["k_hip"]
+    return jnp.where(push_off, jnp.where(swing_hip, jnp.where(shoe, 4, 3), 2), jnp.where(hip_spring, 1, 0))
+
+
 #: Rows that hold at the start of a step (push-off), used to build the section's velocity.
 _SECTION_ROWS = (ph.ANKLE_1_X, ph.ANKLE_1_Y, ph.KNEE_1, ph.KNEE_2, ph.TOE_2)
 
@@ -196,16 +215,11 @@ class FlatFootWalker(Walker):
         :data:`SHOE_PARAMS`, which walks with ``mu = 0.8`` at every contact: the
         gait of the defaults.
         """
-        push_off = params["ankle_push"] >= 0.5 * PUSH_OFF_PARAMS["ankle_push"]
-        swing_hip = params["hip_double_support"] <= 0.75
-        shoe = swing_hip & (params["mu"] <= 1.0)
-        hip_spring = params["k_hip"] >= 0.5 * HIP_SPRING_PARAMS["k_hip"]
-        swing_hip_gait = jnp.where(shoe, jnp.array(SHOE_GAIT), jnp.array(SWING_HIP_GAIT))
-        return jnp.where(
-            push_off,
-            jnp.where(swing_hip, swing_hip_gait, jnp.array(PUSH_OFF_GAIT)),
-            jnp.where(hip_spring, jnp.array(HIP_SPRING_GAIT), jnp.array(PAPER_GAIT)),
-        )
+        return jnp.asarray([gait for _, gait in DOCUMENTED_GAITS])[_documented(params)]
+
+    def guess_made_at(self, params):
+        """The parameters of the documented gait :meth:`initial_guess` gives at ``params``."""
+        return DOCUMENTED_GAITS[int(_documented(params))][0]
 
     # ------------------------------------------------------------ extras
     def limit_use(self, y, params, phase, ctx):
