@@ -220,7 +220,7 @@ def analyse_chunk(
     else:
         k = axes.index(continuation_axis)
         values = np.asarray(grid[continuation_axis], np.float64)
-        seed = seed_index(values, model.seed_value(continuation_axis, fixed))
+        seed = seed_index(values, model.seed_value(continuation_axis, fixed, values))
         moved = {n: np.moveaxis(v, k, -1) for n, v in params.items()}
         moved_shape = next(iter(moved.values())).shape
         rows = {n: v.reshape(-1, len(values)) for n, v in moved.items()}

@@ -81,7 +81,7 @@ def seed_lines(model: Walker, fixed: Mapping[str, float], grid: Mapping[str, np.
     check_axes(grid, continuation_axis, seed_axis)
     axes = list(grid)
     a_values = np.asarray(grid[continuation_axis], np.float64)
-    a_seed = float(a_values[seed_index(a_values, model.seed_value(continuation_axis, fixed))])
+    a_seed = float(a_values[seed_index(a_values, model.seed_value(continuation_axis, fixed, a_values))])
     sub = {name: (np.array([a_seed]) if name == continuation_axis else np.asarray(values, np.float64))
            for name, values in grid.items()}
     params = {n: np.squeeze(v, axes.index(continuation_axis)) for n, v in parameter_grid(model, fixed, sub).items()}
@@ -91,7 +91,7 @@ def seed_lines(model: Walker, fixed: Mapping[str, float], grid: Mapping[str, np.
     moved = {n: np.moveaxis(v, k, -1) for n, v in params.items()}
     moved_shape = next(iter(moved.values())).shape
     rows = {n: v.reshape(-1, len(b_values)) for n, v in moved.items()}
-    seed_b = seed_index(b_values, model.seed_value(seed_axis, fixed))
+    seed_b = seed_index(b_values, model.seed_value(seed_axis, fixed, b_values))
     gaits = run_lines(model, rows, seed_b, options.solver, options.newton, options.chunk_size)
 
     def back(x):

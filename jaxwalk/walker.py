@@ -49,6 +49,7 @@ from typing import Callable, Mapping, NamedTuple
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float, Int8, Int32
 
 from jaxwalk import mechanics
@@ -294,19 +295,32 @@ class Walker:
         (:meth:`seed_value`)."""
         return {}
 
-    def seed_value(self, name: str, fixed: Mapping[str, float]) -> float:
+    def seed_value(self, name: str, fixed: Mapping[str, float], values=None) -> float:
         """Where a continuation along parameter ``name`` starts, for a walker whose
-        other parameters are ``fixed`` (defaults for the rest): the value of ``name``
-        at which the initial guess was made (:meth:`guess_made_at`), else its default.
+        other parameters are ``fixed`` (defaults for the rest; entries that are not
+        scalar parameters are ignored): the value of ``name`` at which the initial guess
+        was made (:meth:`guess_made_at`), else its default. Given the axis's grid
+        ``values``, the one nearest the value its own guess was made at, so an
+        axis that itself selects the guess (the flat-foot walker's ``k_hip``) is
+        judged at each of its values; other grid axes are judged at their defaults.
 
         Not simply the default: a model whose guess is chosen from several
         documented gaits (the flat-foot walker: the paper's walker's, the shoe
         walker's, ...) has each at its own parameters, and a line started far from
         them starts from a guess made for another walker.
         """
-        given = {**self.default_params(), **fixed}
-        made_at = self.guess_made_at({k: float(v) for k, v in given.items()})
-        return float(made_at.get(name, self.param_specs[name].default))
+        given = {**self.default_params(), **{k: v for k, v in fixed.items() if k in self.param_specs and np.ndim(v) == 0}}
+        given = {k: float(v) for k, v in given.items()}
+        default = self.param_specs[name].default
+
+        def made_at(value: float) -> float:
+            return float(self.guess_made_at({**given, name: value}).get(name, default))
+
+        if values is None:
+            return made_at(given[name])
+        values = np.asarray(values, np.float64).reshape(-1)
+        distance = [abs(v - made_at(float(v))) for v in values]
+        return float(values[int(np.argmin(distance))])
 
     def time_scale(self, params: Params) -> Array:
         """Characteristic time ``sqrt(l/g)``, used to size time limits."""

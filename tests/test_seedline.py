@@ -202,3 +202,39 @@ def test_a_grid_seeds_its_lines_at_the_guess_walker(monkeypatch):
     with pytest.raises(RuntimeError, match="stop"):
         G.analyse_grid(flatfoot, fixed, {"P": p_values}, "P", OPTIONS)
     assert seen["seed"] == int(np.argmin(np.abs(p_values - 0.0076)))
+
+
+def test_an_axis_that_selects_the_guess_is_judged_at_each_value():
+    """The flat-foot walker's hip spring selects its guess: on the paper's walker a
+    k_hip line starts at k_hip = 0 (the paper's gait, made there), not at the
+    hip-spring gait's 0.125 that the defaults would select."""
+    from jaxwalk.models.flatfoot.model import HIP_SPRING_PARAMS, PAPER_PARAMS
+
+    flatfoot = get_model("flatfoot")
+    fixed = {k: v for k, v in PAPER_PARAMS.items() if k != "k_hip"}
+    values = np.linspace(0.0, 0.2, 9)
+    assert flatfoot.seed_value("k_hip", fixed, values) == 0.0
+    assert flatfoot.seed_value("k_hip", fixed, values[3:]) == 0.125 == HIP_SPRING_PARAMS["k_hip"]
+    assert flatfoot.seed_value("k_hip", {**fixed, "note": "a string", "r": np.zeros(3)}, values) == 0.0
+
+
+def test_seed_lines_start_where_the_guess_was_made(monkeypatch):
+    """``seed_lines`` runs its lines at the continuation axis's seed value and
+    starts them at the seed axis's, both from ``seed_value``."""
+    import jaxwalk.seedline as S
+    from jaxwalk.models.flatfoot.model import PAPER_PARAMS
+
+    seen = {}
+
+    def fake_run_lines(model, rows, seed, *args, **kwargs):
+        seen.update(seed=seed, P=np.unique(rows["P"]))
+        raise RuntimeError("stop")
+
+    monkeypatch.setattr(S, "run_lines", fake_run_lines)
+    flatfoot = get_model("flatfoot")
+    fixed = {k: v for k, v in PAPER_PARAMS.items() if k != "P"}
+    p_values, k_values = np.linspace(0.004, 0.011, 64), np.linspace(0.0, 0.06, 64)
+    with pytest.raises(RuntimeError, match="stop"):
+        S.seed_lines(flatfoot, fixed, {"k": k_values, "P": p_values}, "P", "k", OPTIONS)
+    assert seen["P"].tolist() == [p_values[np.argmin(np.abs(p_values - 0.0076))]]
+    assert seen["seed"] == int(np.argmin(np.abs(k_values - 0.03)))
