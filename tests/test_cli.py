@@ -218,6 +218,8 @@ def test_end_to_end_dataset_layout(tmp_path, fake_analysis):
     assert attrs["model"] == "simplest" and "Garcia" in attrs["model_description"]
     assert attrs["name"] == "slope_scan" and attrs["swept_parameters"] == "gamma"
     assert attrs["continuation_axis"] == "gamma"
+    gammas = ds["gamma"].values
+    assert attrs["continuation_start"] == gammas[np.argmin(np.abs(gammas - 0.009))]  # the simplest walker's default slope
     assert json.loads(attrs["fixed_parameters"]) == {}
     assert attrs["units_note"].startswith("dimensionless")
     assert json.loads(attrs["config"]) == config.to_dict()

@@ -102,6 +102,13 @@ def coordinates(config: SweepConfig, model: Walker) -> dict[str, tuple]:
     return coords
 
 
+def _continuation_start(config: SweepConfig, model: Walker) -> float | str:
+    """The continuation axis's value where every line starts (``Walker.seed_value``), or ``"none"``."""
+    if config.continuation is None:
+        return "none"
+    return model.seed_value(config.continuation, config.fixed, config.grid[config.continuation])
+
+
 def dataset_attributes(config: SweepConfig, model: Walker, *, command: str | None, created: _dt.datetime,
                        options: Mapping | None) -> dict[str, object]:
     """The global attributes: what was swept and how, the config, provenance and package versions."""
@@ -116,6 +123,7 @@ def dataset_attributes(config: SweepConfig, model: Walker, *, command: str | Non
         "parameter_units": json.dumps({p.name: p.units for p in model.parameters}),
         "units_note": units_note(model),
         "continuation_axis": config.continuation or "none",
+        "continuation_start": _continuation_start(config, model),
         "seed_axis": config.seed_axis or "none",
         "stability": int(config.stability),
         "config": config.to_json(),
