@@ -28,7 +28,7 @@ Array = jax.Array
 
 
 def seed_index(values: np.ndarray, default: float) -> int:
-    """Index of the grid value nearest ``default`` (where continuation starts)."""
+    """Index of the grid value nearest ``default`` (where continuation starts: :meth:`jaxwalk.walker.Walker.seed_value`)."""
     return int(np.argmin(np.abs(np.asarray(values) - default)))
 
 
