@@ -20,7 +20,7 @@ import difflib
 import re
 import tomllib
 from pathlib import Path
-from typing import Any, Callable, ClassVar, Mapping
+from typing import Any, Callable, ClassVar, Literal, Mapping
 
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError
 from pydantic_core import PydanticUndefined
@@ -186,6 +186,11 @@ class TopLevel(Table):
         return f"unknown top-level {what} '{key}'{did_you_mean(key, allowed)} (allowed: {', '.join(allowed)})"
 
 
+#: The values of :attr:`jaxwalk.gait.NewtonOptions.predictor` (that module imports
+#: JAX, which parsing a config must not; tests/test_continuation.py holds the two equal).
+PREDICTORS = ("secant", "previous")
+
+
 class Solver(Table):
     """The solver settings of ``[analysis]`` (sweeps, optimisation): each passed to
     the analysis when set, its default otherwise."""
@@ -196,6 +201,7 @@ class Solver(Table):
     atol: float | None = field(None, "a positive number", gt=0, allow_inf_nan=False)
     newton_tol: float | None = field(None, "a positive number", gt=0, allow_inf_nan=False)
     max_newton_iter: int | None = field(None, "a positive integer", ge=1)
+    predictor: Literal[PREDICTORS] | None = field(None, f"one of {', '.join(PREDICTORS)}")
 
     @classmethod
     def settings(cls, table: Mapping[str, Any], fail: Fail) -> dict[str, float | int]:

@@ -9,6 +9,17 @@ documented gait the guess is: :meth:`jaxwalk.walker.Walker.seed_value`), walks u
 the axis, then walks down from the same seed. A point whose search fails starts
 the next one from the last converged gait (or from the model's guess if there
 is none yet). All other axes are batched with ``vmap``.
+
+Newton starts at the next point on the secant through the gaits of the two
+points before (``NewtonOptions.predictor = "secant"``, the default): its error
+is of second order in the grid step where the neighbour's gait is of first, which
+saves a Newton iteration of about four step evaluations on a smooth branch
+(benchmarks/README.md). Where that search fails, the same search starts again
+from the neighbour's gait (:func:`jaxwalk.gait.find_gait`'s fallback), so a
+point the order-zero start finds is never lost to a poor extrapolation, and a
+point where both fail reports what the order-zero start met. The secant is
+used only after two converged consecutive visits in the walk's direction (the
+seed counts as the visit before the first one of the walk down).
 """
 
 from __future__ import annotations
@@ -54,12 +65,25 @@ class LineCarry(NamedTuple):
             converged gait, or the last start where a search failed) and whether it holds one.
         v_seed, have_seed: ``(n_v,)`` the seed point's gait (or the line's given
             start before the seed is visited), where the walk down restarts.
+        s_prev: the continuation parameter's value at the last visit.
+        last_ok: the last visit's search converged (``v_prev`` is its gait).
+        v_prev2, s_prev2, have_prev2: ``(n_v,)`` the gait before ``v_prev`` and
+            its parameter value, and whether both are converged gaits of
+            consecutive visits of the walk (the secant predictor's second point).
+        s_seed, seed_ok: the seed point's parameter value and whether its search converged.
     """
 
     v_prev: Array
     have_prev: Array
     v_seed: Array
     have_seed: Array
+    s_prev: Array
+    last_ok: Array
+    v_prev2: Array
+    s_prev2: Array
+    have_prev2: Array
+    s_seed: Array
+    seed_ok: Array
 
 
 def line_start(n_v: int, dtype, v_start: Array | None = None, have_start: Array | bool = False) -> LineCarry:
@@ -67,12 +91,53 @@ def line_start(n_v: int, dtype, v_start: Array | None = None, have_start: Array 
     (it then plays the model's initial guess's part throughout), else none."""
     have = jnp.asarray(have_start, bool)
     v0 = jnp.zeros(n_v, dtype) if v_start is None else jnp.where(have, jnp.asarray(v_start, dtype), 0.0)
-    return LineCarry(v0, have, v0, have)
+    return fresh_carry(v0, have)
+
+
+def fresh_carry(v0, have) -> LineCarry:
+    """A :class:`LineCarry` that holds only a start ``v0`` (``(..., n_v)``) where ``have`` (``(...)``)."""
+    no = jnp.zeros_like(have, dtype=bool) if isinstance(have, jax.Array) else np.zeros_like(have, dtype=bool)
+    zero = no.astype(v0.dtype)
+    return LineCarry(v0, have, v0, have, zero, no, v0 * 0, zero, no, zero, no)
+
+
+def secant_start(carry: LineCarry, s: Array, from_seed: Array) -> tuple[Array, Array]:
+    """``(v, usable)``: the point at parameter ``s`` on the line through the
+    carry's last two gaits, and whether they allow it (two consecutive
+    converged visits, distinct parameter values, not a restart from the seed)."""
+    usable = carry.have_prev2 & carry.last_ok & ~from_seed & (carry.s_prev != carry.s_prev2)
+    ratio = (s - carry.s_prev) / jnp.where(usable, carry.s_prev - carry.s_prev2, 1.0)
+    return carry.v_prev + ratio * (carry.v_prev - carry.v_prev2), usable
+
+
+def after_visit(carry: LineCarry, v: Array, ok: Array, s: Array, from_seed: Array, is_first: Array,
+                start_v: Array, start_ok: Array) -> LineCarry:
+    """The carry after a visit at parameter ``s`` whose search from ``start_v``
+    (``start_ok``: a real start) ended with gait ``v`` (``ok``: converged)."""
+    # The gait before this one in the walk: the seed's on the first visit down.
+    before_v = jnp.where(from_seed, carry.v_seed, carry.v_prev)
+    before_s = jnp.where(from_seed, carry.s_seed, carry.s_prev)
+    before_ok = jnp.where(from_seed, carry.seed_ok, carry.last_ok)
+    seeded = is_first & ok
+    return LineCarry(
+        v_prev=jnp.where(ok, v, start_v),
+        have_prev=ok | start_ok,
+        v_seed=jnp.where(seeded, v, carry.v_seed),
+        have_seed=carry.have_seed | seeded,
+        s_prev=jnp.where(ok, s, carry.s_prev),
+        last_ok=ok,
+        v_prev2=jnp.where(ok, before_v, carry.v_prev2),
+        s_prev2=jnp.where(ok, before_s, carry.s_prev2),
+        have_prev2=ok & before_ok,
+        s_seed=jnp.where(seeded, s, carry.s_seed),
+        seed_ok=carry.seed_ok | seeded,
+    )
 
 
 def continue_segment(
     model: Walker,
     visits: Mapping[str, Array],
+    position: Array,
     restart: Array,
     first: Array,
     valid: Array,
@@ -84,6 +149,8 @@ def continue_segment(
 
     Args:
         visits: dict of ``(L,)`` parameter arrays, one entry per visit.
+        position: ``(L,)`` the continuation parameter's value at each visit
+            (the secant predictor's abscissa).
         restart: ``(L,)`` True where the visit starts from the seed's gait
             instead of the previous visit's (:func:`visiting_order`).
         first: ``(L,)`` True at the line's seed point (its first visit).
@@ -97,66 +164,26 @@ def continue_segment(
     """
     guess_fn = model.initial_guess
 
-    def search(carry: LineCarry, p, from_seed, is_first):
+    def search(carry: LineCarry, p, s, from_seed, is_first):
         start_v = jnp.where(from_seed, carry.v_seed, carry.v_prev)
         start_ok = jnp.where(from_seed, carry.have_seed, carry.have_prev)
         v0 = jnp.where(start_ok, start_v, guess_fn(p))
-        gait = find_gait(model, p, v0, solver, newton)
+        if newton.predictor == "secant":
+            v_secant, use = secant_start(carry, s, from_seed)
+            gait = find_gait(model, p, jnp.where(use, v_secant, v0), solver, newton, v_fallback=v0, use_fallback=use)
+        else:
+            gait = find_gait(model, p, v0, solver, newton)
         ok = gait.status == Status.OK
-        seeded = is_first & ok
-        after = LineCarry(
-            v_prev=jnp.where(ok, gait.v, start_v),
-            have_prev=ok | start_ok,
-            v_seed=jnp.where(seeded, gait.v, carry.v_seed),
-            have_seed=carry.have_seed | seeded,
-        )
-        return after, gait
+        return after_visit(carry, gait.v, ok, s, from_seed, is_first, start_v, start_ok), gait
 
     # One trace serves both the shape of a skipped visit's output and the branch
     # that runs (jit caches the trace of one function object at one signature).
     search = jax.jit(search)
 
     def visit(carry, xs):
-        p, from_seed, is_first, real = xs
-        shapes = jax.eval_shape(search, carry, p, from_seed, is_first)
-        skipped = lambda c, *_: (c, jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), shapes[1]))
-        return jax.lax.cond(real, search, skipped, carry, p, from_seed, is_first)
+        p, s, from_seed, is_first, real = xs
+        shapes = jax.eval_shape(search, carry, p, s, from_seed, is_first)
+        skipped = lambda c, *_: (c, jax.tree_util.tree_map(lambda x: jnp.zeros(x.shape, x.dtype), shapes[1]))
+        return jax.lax.cond(real, search, skipped, carry, p, s, from_seed, is_first)
 
-    return jax.lax.scan(visit, carry, (dict(visits), restart, first, valid))
-
-
-def continue_along(
-    model: Walker,
-    params_line: Mapping[str, Array],
-    order: np.ndarray,
-    restart: np.ndarray,
-    solver: SolverOptions,
-    newton: NewtonOptions,
-    v_start: Array | None = None,
-    have_start: Array | bool = False,
-) -> Gait:
-    """Gaits along one whole line of the continuation axis (one config per
-    entry): :func:`continue_segment` over every visit at once.
-
-    Args:
-        params_line: dict of ``(n,)`` parameter arrays along the axis.
-        order, restart: from :func:`visiting_order` (NumPy arrays).
-        v_start: ``(n_v,)`` start of the seed point (the first visited) in
-            place of the model's initial guess, used where ``have_start``
-            (e.g. a converged gait of a seed line, :mod:`jaxwalk.seedline`). It
-            plays the guess's part throughout: where the seed point fails, the
-            walk down restarts from it too.
-
-    Returns:
-        A :class:`Gait` whose leaves have leading dimension ``n``, in grid order.
-    """
-    order = np.asarray(order)
-    some = next(iter(params_line.values()))
-    n = len(order)
-    visits = {k: jnp.asarray(val)[order] for k, val in params_line.items()}
-    first = np.arange(n) == 0
-    carry = line_start(len(model.section_names), some.dtype, v_start, have_start)
-    _, gaits = continue_segment(model, visits, jnp.asarray(restart), first, np.ones(n, bool), carry, solver, newton)
-    inverse = np.argsort(order)
-    return jax.tree_util.tree_map(lambda x: x[inverse], gaits)
-
+    return jax.lax.scan(visit, carry, (dict(visits), position, restart, first, valid))

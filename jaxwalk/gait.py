@@ -41,11 +41,25 @@ class NewtonOptions:
         max_iter: iterations before ``NO_CONVERGENCE``.
         max_update: an update larger than this (inf-norm) is scaled down to it,
             which keeps a poor start from jumping out of the section's domain.
+        predictor: where a continuation line starts Newton at its next point
+            (:mod:`jaxwalk.continuation`): ``"secant"``, on the line through
+            the gaits of the two points before, with the gait of the point
+            before as the fallback start; ``"previous"``, at the gait of the
+            point before (order zero).
     """
 
     tol: float = 1e-8
     max_iter: int = 25
     max_update: float = 0.2
+    predictor: str = "secant"
+
+    def __post_init__(self):
+        if self.predictor not in PREDICTORS:
+            raise ValueError(f"predictor must be one of {', '.join(PREDICTORS)}, got {self.predictor!r}")
+
+
+#: :attr:`NewtonOptions.predictor` values.
+PREDICTORS = ("secant", "previous")
 
 
 class GaitStats(NamedTuple):
@@ -98,7 +112,7 @@ class Gait(NamedTuple):
         step_length: distance between successive stance feet (model length units).
         speed: ``step_length / period``.
         status: int8 :class:`~jaxwalk.status.Status`.
-        iterations: Newton iterations used.
+        iterations: Newton iterations used (both searches where :func:`find_gait` fell back to its second start).
         work: actuator work per step (model energy units; 0 for passive walkers).
         cost_of_transport: ``work / (weight * step_length)``, the actuators'
             mechanical cost of transport (dimensionless; 0 for passive walkers,
@@ -177,6 +191,8 @@ def find_gait(
     v0: Float[Array, "n_v"],
     solver: SolverOptions = SolverOptions(),
     newton: NewtonOptions = NewtonOptions(),
+    v_fallback: Float[Array, "n_v"] | None = None,
+    use_fallback: Array | bool = False,
 ) -> Gait:
     """Newton-Raphson fixed point of the step map from ``v0`` (one config; vmap it).
 
@@ -184,15 +200,24 @@ def find_gait(
     forward-mode pass and updates ``v -= (J - I)^-1 (f(v) - v)`` (paper eqs. 21-22).
     After the update that falls below ``tol``, one more evaluation at the
     converged point gives the reported Jacobian, period and step length.
+
+    Where ``use_fallback`` (bool, traced), a search from ``v0`` that fails (any
+    status but OK) starts once more from ``v_fallback`` ``(n_v,)``, in the same
+    loop, and the result is that second search's (its status where it fails
+    too); :attr:`Gait.iterations` counts both. Continuation lines start from an
+    extrapolated point with the neighbour's gait as the fallback
+    (:mod:`jaxwalk.continuation`).
     """
     running = jnp.int8(Status.IN_PROGRESS)
     n_v, dtype = v0.shape[0], v0.dtype
     nan = jnp.full((), jnp.nan, dtype)
     zero = jnp.zeros((), jnp.int32)
     y0, _, ctx0 = jax.eval_shape(model.section_to_state, v0, params)  # the shapes of a step's state
+    fallback = v0 if v_fallback is None else jnp.asarray(v_fallback, dtype)
     carry0 = _Newton(v0, zero, running, jnp.asarray(False), jnp.full((n_v, n_v), jnp.nan, dtype), nan, nan, nan, zero, zero,
-                     zero - 1, zero - 1, jnp.full(y0.shape, jnp.nan, y0.dtype), jnp.full(ctx0.shape, jnp.nan, ctx0.dtype))
-    body = _newton_iteration(step_residual(model, params, solver), newton, jnp.eye(n_v, dtype=dtype))
+                     zero - 1, zero - 1, jnp.full(y0.shape, jnp.nan, y0.dtype), jnp.full(ctx0.shape, jnp.nan, ctx0.dtype),
+                     fallback, jnp.asarray(use_fallback, bool) & (v_fallback is not None), zero)
+    body = _fall_back(_newton_iteration(step_residual(model, params, solver), newton, jnp.eye(n_v, dtype=dtype)))
 
     def cond(c: _Newton):
         # The status ends the loop (NO_CONVERGENCE once k reaches max_iter, and
@@ -219,6 +244,9 @@ class _Newton(NamedTuple):
     guard: Array  # int32, the guard of its last event (StepResult.guard)
     y_end: Array  # (2 n_q,) the state where it stopped
     ctx_end: Array  # (n_ctx,)
+    fallback: Array  # (n_v,) the second start
+    has_fallback: Array  # bool: a failure starts again from ``fallback`` (once)
+    spent: Array  # int32, iterations of a search abandoned for the fallback
 
 
 def _newton_iteration(residual, newton: NewtonOptions, eye: Array):
@@ -245,7 +273,7 @@ def _newton_iteration(residual, newton: NewtonOptions, eye: Array):
             running,
         ).astype(jnp.int8)
         move = ~(step_failed | bad_number | converged)
-        return _Newton(
+        return carry._replace(
             v=jnp.where(move, v + update, v),
             k=k,
             status=status,
@@ -265,6 +293,26 @@ def _newton_iteration(residual, newton: NewtonOptions, eye: Array):
     return body
 
 
+def _fall_back(body):
+    """``body`` (a :class:`_Newton` step) with a failed search restarted once from
+    the carry's fallback start: ``k`` counts the new search, ``spent`` the old."""
+    running = jnp.int8(Status.IN_PROGRESS)
+
+    def wrapped(carry: _Newton) -> _Newton:
+        new = body(carry)
+        retry = carry.has_fallback & (new.status != running) & (new.status != Status.OK)
+        return new._replace(
+            v=jnp.where(retry, carry.fallback, new.v),
+            k=jnp.where(retry, 0, new.k),
+            status=jnp.where(retry, running, new.status),
+            converged=new.converged & ~retry,
+            has_fallback=carry.has_fallback & ~retry,
+            spent=new.spent + jnp.where(retry, new.k, 0),
+        )
+
+    return wrapped
+
+
 def _gait(model: Walker, params, out: _Newton) -> Gait:
     """The :class:`Gait` of the search's last carry: NaN numbers unless it converged."""
     ok = out.status == Status.OK
@@ -280,7 +328,7 @@ def _gait(model: Walker, params, out: _Newton) -> Gait:
         step_length=blank(out.length),
         speed=blank(out.length / out.period),
         status=out.status,
-        iterations=out.k,
+        iterations=out.k + out.spent,
         work=blank(out.work),
         cost_of_transport=blank(out.work / (model.weight(params) * out.length)),
         stats=_stats(model, params, out),
@@ -290,7 +338,7 @@ def _gait(model: Walker, params, out: _Newton) -> Gait:
 def _stats(model: Walker, params, out: _Newton) -> GaitStats:
     """What the search cost, and where a failed step stopped (:class:`GaitStats`)."""
     cause = failure_cause(model, params, out.status, out.phase, out.guard, out.y_end, out.ctx_end)
-    return GaitStats(out.k, out.events, out.ode_steps, *cause)
+    return GaitStats(out.k + out.spent, out.events, out.ode_steps, *cause)
 
 
 def failure_cause(model: Walker, params, status, phase, guard, y, ctx) -> tuple[Array, Array, Array]:

@@ -226,7 +226,7 @@ def analyse_chunk(
         rows = {n: v.reshape(-1, len(values)) for n, v in moved.items()}
         if starts is not None:
             starts = np.asarray(starts, np.float64).reshape(-1, len(model.section_names))
-        gaits = run_lines(model, rows, seed, options.solver, options.newton, options.chunk_size, starts, progress)
+        gaits = run_lines(model, rows, values, seed, options.solver, options.newton, options.chunk_size, starts, progress)
 
         def unflatten(x):
             x = x.reshape(moved_shape + x.shape[2:])

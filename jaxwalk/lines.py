@@ -18,11 +18,11 @@ from typing import Callable, Mapping, NamedTuple
 
 import jax
 import numpy as np
-from jaxtyping import Array, Bool
+from jaxtyping import Array, Bool, Float
 
 from jaxwalk import program_cache
 from jaxwalk.batching import Rows, in_sub_batches, run_chunks, sub_batch_size
-from jaxwalk.continuation import LineCarry, continue_segment, visiting_order
+from jaxwalk.continuation import LineCarry, continue_segment, fresh_carry, visiting_order
 from jaxwalk.gait import Gait, NewtonOptions
 from jaxwalk.status import Status
 from jaxwalk.step import SolverOptions
@@ -38,6 +38,7 @@ class SegmentInputs(NamedTuple):
     """A line's input to :func:`segment_program` beside its parameters (``(L,)``
     arrays over the segment's ``L`` visits, one row per line in a call)."""
 
+    position: Float[Array, " L"]  # the continuation parameter's value at the visit
     restart: Bool[Array, " L"]  # the visit starts again from the line's seed
     first: Bool[Array, " L"]  # the segment's first visit
     visit_valid: Bool[Array, " L"]  # a real visit, not padding; the same on every line
@@ -55,7 +56,7 @@ def segment_program(model: Walker, solver: SolverOptions, newton: NewtonOptions)
     the same leading axis."""
 
     def line(params, inputs: SegmentInputs, valid):
-        return continue_segment(model, params, inputs.restart, inputs.first, valid, inputs.carry, solver, newton)
+        return continue_segment(model, params, inputs.position, inputs.restart, inputs.first, valid, inputs.carry, solver, newton)
 
     def program(rows: Rows):
         valid = rows.inputs.visit_valid[0]
@@ -78,6 +79,7 @@ def lines_per_call(chunk_size: int) -> int:
 def run_lines(
     model: Walker,
     lines: Mapping[str, np.ndarray],
+    positions: np.ndarray,
     seed: int,
     solver: SolverOptions,
     newton: NewtonOptions,
@@ -89,6 +91,7 @@ def run_lines(
 
     Args:
         lines: every parameter as an ``(n_lines, n)`` array, in grid order.
+        positions: ``(n,)`` the continuation parameter's values along every line.
         seed: index along the lines where each walk starts
             (:func:`~jaxwalk.continuation.seed_index`).
         chunk_size: points per program call (:func:`lines_per_call` lines of a segment).
@@ -101,7 +104,7 @@ def run_lines(
         A :class:`Gait` of ``(n_lines, n)`` leaves, in grid order.
     """
     n_lines, n = next(iter(lines.values())).shape
-    segments, order = segment_inputs(model, lines, seed, starts)
+    segments, order = segment_inputs(model, lines, positions, seed, starts)
     program = segment_program(model, solver, newton)
     carry, pieces = None, []
     for rows in segments:
@@ -114,10 +117,11 @@ def run_lines(
     gaits = jax.tree_util.tree_map(lambda *xs: np.concatenate(xs, axis=1)[:, :n], *pieces)
     inverse = np.argsort(order)
     gaits = jax.tree_util.tree_map(lambda x: x[:, inverse], gaits)
-    return fill_from_neighbours(model, lines, gaits, program, chunk_size)
+    return fill_from_neighbours(model, lines, positions, gaits, program, chunk_size)
 
 
-def fill_from_neighbours(model: Walker, lines: Mapping[str, np.ndarray], gaits: Gait, program, chunk_size: int) -> Gait:
+def fill_from_neighbours(model: Walker, lines: Mapping[str, np.ndarray], positions: np.ndarray, gaits: Gait, program,
+                         chunk_size: int) -> Gait:
     """Solve again, from a found neighbour's gait, every point of a line whose
     search failed beside it, until no point changes.
 
@@ -129,11 +133,14 @@ def fill_from_neighbours(model: Walker, lines: Mapping[str, np.ndarray], gaits: 
     candidates (a failed point with a found neighbour not yet tried from that
     side) as one-visit lines of the same ``program`` (no new compile); a found
     gait makes its other neighbour a candidate. Block-independent: a line's
-    result depends on its own points only.
+    result depends on its own points only. Each search starts as the walk's
+    would have from that side: on the secant through the neighbour's gait and
+    the next one beyond it where that is found too (``NewtonOptions.predictor``).
 
     Args:
         lines: the parameters, ``(n_lines, n)`` each; ``gaits``: their
             :class:`Gait` from the walk, ``(n_lines, n)`` leaves, in grid order.
+        positions: ``(n,)`` the continuation parameter's values along the lines.
         program: :func:`segment_program` of the model and settings.
 
     Returns:
@@ -155,9 +162,9 @@ def fill_from_neighbours(model: Walker, lines: Mapping[str, np.ndarray], gaits: 
             return gaits
         side = np.where(from_left[line, point], -1, 1)
         tried[line, point, np.where(side < 0, 0, 1)] = True
-        starts = np.asarray(gaits.v)[line, point + side]
         single = {k: np.asarray(v, np.float64)[line, point][:, None] for k, v in lines.items()}
-        (rows,), _ = segment_inputs(model, single, 0, starts)
+        carry = _neighbour_carry(gaits, positions, line, point, side)
+        (rows,), _ = segment_inputs(model, single, np.asarray(positions, np.float64)[point][:, None], 0, carry=carry)
         _, again = run_chunks(program, rows, lines_per_call(chunk_size), None, MIN_LINES_PER_THREAD)
         ok = np.asarray(again.status)[:, 0] == Status.OK
         for leaf, new in zip(jax.tree_util.tree_leaves(gaits), jax.tree_util.tree_leaves(again)):
@@ -166,25 +173,29 @@ def fill_from_neighbours(model: Walker, lines: Mapping[str, np.ndarray], gaits: 
 
 
 def segment_inputs(
-    model: Walker, lines: Mapping[str, np.ndarray], seed: int, starts: np.ndarray | None = None
+    model: Walker, lines: Mapping[str, np.ndarray], positions: np.ndarray, seed: int, starts: np.ndarray | None = None,
+    carry: LineCarry | None = None,
 ) -> tuple[list[Rows], np.ndarray]:
     """The rows of :func:`segment_program` for each segment of ``n_lines`` lines
-    (arguments as :func:`run_lines`), every one holding the carry before the
-    line's first visit (a run replaces it by the carry the segment before
-    handed out), and the visiting order (``(n,)``: visit ``k`` is point ``order[k]``)."""
+    (arguments as :func:`run_lines`; ``positions`` ``(n,)`` or one row per line,
+    ``(n_lines, n)``), every one holding the carry before the line's first
+    visit (``carry`` where given, else from ``starts``; a run replaces it by the
+    carry the segment before handed out), and the visiting order (``(n,)``:
+    visit ``k`` is point ``order[k]``)."""
     n_lines, n = next(iter(lines.values())).shape
     order, restart = visiting_order(n, seed)
     padded = -(-n // SEGMENT_LENGTH) * SEGMENT_LENGTH
     visit_order = np.concatenate([order, np.full(padded - n, order[-1], order.dtype)])
     visits = {k: np.asarray(v, np.float64)[:, visit_order] for k, v in lines.items()}
     restart = np.concatenate([restart, np.zeros(padded - n, bool)])
+    position = np.broadcast_to(np.asarray(positions, np.float64), (n_lines, n))[:, visit_order]
     first, visit_valid = np.arange(padded) == 0, np.arange(padded) < n
-    carry = _initial_carry(model, n_lines, starts)
+    carry = _initial_carry(model, n_lines, starts) if carry is None else carry
     segments = []
     for start in range(0, padded, SEGMENT_LENGTH):
         part = slice(start, start + SEGMENT_LENGTH)
         per_line = lambda v: np.broadcast_to(v[part], (n_lines, SEGMENT_LENGTH)).copy()  # noqa: E731
-        inputs = SegmentInputs(per_line(restart), per_line(first), per_line(visit_valid), carry)
+        inputs = SegmentInputs(position[:, part].copy(), per_line(restart), per_line(first), per_line(visit_valid), carry)
         segments.append(Rows({name: v[:, part] for name, v in visits.items()}, inputs))
     return segments, order
 
@@ -196,5 +207,19 @@ def _initial_carry(model: Walker, n_lines: int, starts: np.ndarray | None) -> Li
         starts = np.full((n_lines, n_v), np.nan)
     starts = np.asarray(starts, np.float64).reshape(n_lines, n_v)
     have = np.isfinite(starts).all(axis=-1)
-    v0 = np.where(have[:, None], starts, 0.0)
-    return LineCarry(v_prev=v0, have_prev=have, v_seed=v0.copy(), have_seed=have.copy())
+    return fresh_carry(np.where(have[:, None], starts, 0.0), have)
+
+
+def _neighbour_carry(gaits: Gait, positions: np.ndarray, line: np.ndarray, point: np.ndarray, side: np.ndarray) -> LineCarry:
+    """The carry of one-visit lines at ``(line, point)`` (each ``(m,)``) reached
+    from their found neighbour at ``point + side``, with the gait beyond it
+    (``point + 2 side``) as the secant's second point where that one is found."""
+    v, status = np.asarray(gaits.v), np.asarray(gaits.status)
+    s = np.asarray(positions, np.float64)
+    n = status.shape[1]
+    beyond = np.clip(point + 2 * side, 0, n - 1)
+    have2 = (point + 2 * side == beyond) & (status[line, beyond] == Status.OK)
+    v1, have = v[line, point + side], np.ones(line.shape, bool)
+    carry = fresh_carry(v1, have)
+    return carry._replace(s_prev=s[point + side], last_ok=have, v_prev2=np.where(have2[:, None], v[line, beyond], 0.0),
+                          s_prev2=np.where(have2, s[beyond], 0.0), have_prev2=have2)

@@ -8,7 +8,7 @@ from them along another axis B (the flat-foot walker's foot length, say) that
 guess misses the gait and the whole line is lost. With ``[analysis] seed_axis
 = "B"`` a *seed line* first runs along B at A's seed value, itself continued
 from B's seed (the B value nearest its seed value) up then down, exactly as
-:func:`jaxwalk.continuation.continue_along` walks any line; every A-line then
+:func:`jaxwalk.lines.run_lines` walks any line; every A-line then
 starts its seed point from the seed line's gait at its B value (from the
 model's guess where the seed line failed there). With more than two axes
 there is one seed line per combination of the others.
@@ -92,7 +92,7 @@ def seed_lines(model: Walker, fixed: Mapping[str, float], grid: Mapping[str, np.
     moved_shape = next(iter(moved.values())).shape
     rows = {n: v.reshape(-1, len(b_values)) for n, v in moved.items()}
     seed_b = seed_index(b_values, model.seed_value(seed_axis, fixed, b_values))
-    gaits = run_lines(model, rows, seed_b, options.solver, options.newton, options.chunk_size)
+    gaits = run_lines(model, rows, b_values, seed_b, options.solver, options.newton, options.chunk_size)
 
     def back(x):
         x = np.asarray(x).reshape(moved_shape + x.shape[2:])

@@ -220,6 +220,7 @@ def test_grid_limit_is_configurable():
         ("newton_tol = 0.0", "newton_tol must be a positive number"),
         ("max_newton_iter = 0", "max_newton_iter must be a positive integer"),
         ("max_newton_iter = 2.5", "max_newton_iter must be a positive integer"),
+        ('predictor = "linear"', "predictor must be one of secant, previous"),
     ],
 )
 def test_bad_analysis(analysis, match):

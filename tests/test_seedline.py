@@ -189,7 +189,7 @@ def test_a_grid_seeds_its_lines_at_the_guess_walker(monkeypatch):
     """``analyse_grid`` hands the line program the seed index from ``seed_value``."""
     seen = {}
 
-    def fake_run_lines(model, rows, seed, *args, **kwargs):
+    def fake_run_lines(model, rows, positions, seed, *args, **kwargs):
         seen["seed"] = seed
         raise RuntimeError("stop")
 
@@ -226,7 +226,7 @@ def test_seed_lines_start_where_the_guess_was_made(monkeypatch):
 
     seen = {}
 
-    def fake_run_lines(model, rows, seed, *args, **kwargs):
+    def fake_run_lines(model, rows, positions, seed, *args, **kwargs):
         seen.update(seed=seed, P=np.unique(rows["P"]))
         raise RuntimeError("stop")
 

@@ -62,7 +62,7 @@ RESULT_KEYS = {o.name: bool(o.trailing) for o in gait.OUTPUTS}
 #: Result arrays of the step-down test (``[analysis] h_max``, :mod:`jaxwalk.analyses.step_down`), all of the grid's shape.
 STEP_DOWN_KEYS = tuple(o.name for o in step_down.OUTPUTS)
 #: ``[analysis]`` keys and the ``NewtonOptions`` / ``SolverOptions`` fields they set.
-_NEWTON_FIELDS = {"newton_tol": "tol", "max_newton_iter": "max_iter"}
+_NEWTON_FIELDS = {"newton_tol": "tol", "max_newton_iter": "max_iter", "predictor": "predictor"}
 _SOLVER_FIELDS = {"rtol": "rtol", "atol": "atol"}
 
 
