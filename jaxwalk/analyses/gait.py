@@ -46,7 +46,7 @@ OUTPUTS = (
             "supplies its energy: sin(gamma) per unit weight and distance)"
         )},
     ),
-    Output("newton_iterations", "int32", "Newton iterations used to find the fixed point", "Newton iterations",
+    Output("newton_iterations", "int32", "Newton iterations used to find the fixed point (both searches where continuation's fallback start ran)", "Newton iterations",
            always=True, source="iterations"),
 )
 #: Without stability these are neither required nor written.
