@@ -43,7 +43,7 @@ def main() -> None:
     fill = L.fill_from_neighbours
 
     def run(with_fill: bool) -> tuple[dict, float]:
-        L.fill_from_neighbours = fill if with_fill else (lambda model, lines, gaits, program, chunk_size: gaits)
+        L.fill_from_neighbours = fill if with_fill else (lambda model, lines, positions, gaits, program, chunk_size: gaits)
         t0 = time.perf_counter()
         out = analyse_grid(model, PAPER_PARAMS, grid, "r", options)
         return out, time.perf_counter() - t0

@@ -4,7 +4,8 @@ ratio to the period-1 stability analysis on the same grid (issue 15).
 Every timing is wall-clock seconds of one :func:`jaxwalk.grid.analyse_grid`
 call over the whole grid (continuation along gamma), the best of ``--repeat``
 warm runs; the first call of each setting (compiling or loading its programs,
-plus one run) is timed and reported apart. Settings, each timed in turn:
+plus one run) is timed and reported apart; a setting whose warm calls are
+short is timed more often (until 10 s of calls). Settings, each timed in turn:
 
 * ``period1``: gaits and multipliers only (``AnalysisOptions()``);
 * ``gait_sensitivity``: ``[analysis] gait_sensitivity = true`` (defaults);
@@ -91,17 +92,26 @@ def options_for(table: dict, name: str, fixed: dict, grid: dict) -> AnalysisOpti
     return analysis_options(loads_config("\n".join(lines)))
 
 
+#: Warm calls of a setting go on until they add up to this many seconds (at most
+#: MAX_CALLS): a one-second sweep timed once moves with the load by more than the
+#: ratios it is compared by.
+MIN_WARM_SECONDS = 10.0
+MAX_CALLS = 10
+
+
 def timed(run, repeat: int) -> tuple[float, float, dict]:
     """``(first_s, best_s, result)``: seconds of the first call (compile or load,
-    plus one run) and the best of ``repeat`` further calls."""
+    plus one run) and the best of at least ``repeat`` further calls (more, up to
+    :data:`MAX_CALLS`, until they add up to :data:`MIN_WARM_SECONDS`)."""
     t0 = time.perf_counter()
     out = run()
     first = time.perf_counter() - t0
-    best = np.inf
-    for _ in range(repeat):
+    best, spent, calls = np.inf, 0.0, 0
+    while calls < repeat or (spent < MIN_WARM_SECONDS and calls < MAX_CALLS):
         t0 = time.perf_counter()
         out = run()
-        best = min(best, time.perf_counter() - t0)
+        took = time.perf_counter() - t0
+        best, spent, calls = min(best, took), spent + took, calls + 1
     return first, best, out
 
 

@@ -186,6 +186,10 @@ class TopLevel(Table):
         return f"unknown top-level {what} '{key}'{did_you_mean(key, allowed)} (allowed: {', '.join(allowed)})"
 
 
+#: ``[analysis]`` solver keys and the ``SolverOptions`` / ``NewtonOptions`` fields
+#: they set (sweeps and optimisations alike).
+SOLVER_FIELDS = {"rtol": "rtol", "atol": "atol"}
+NEWTON_FIELDS = {"newton_tol": "tol", "max_newton_iter": "max_iter", "predictor": "predictor"}
 #: The values of :attr:`jaxwalk.gait.NewtonOptions.predictor` (that module imports
 #: JAX, which parsing a config must not; tests/test_continuation.py holds the two equal).
 PREDICTORS = ("secant", "previous")

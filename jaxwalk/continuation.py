@@ -14,12 +14,19 @@ Newton starts at the next point on the secant through the gaits of the two
 points before (``NewtonOptions.predictor = "secant"``, the default): its error
 is of second order in the grid step where the neighbour's gait is of first, which
 saves a Newton iteration of about four step evaluations on a smooth branch
-(benchmarks/README.md). Where that search fails, the same search starts again
-from the neighbour's gait (:func:`jaxwalk.gait.find_gait`'s fallback), so a
-point the order-zero start finds is never lost to a poor extrapolation, and a
-point where both fail reports what the order-zero start met. The secant is
-used only after two converged consecutive visits in the walk's direction (the
-seed counts as the visit before the first one of the walk down).
+(benchmarks/README.md). Where that search fails, has not converged after
+:data:`SECANT_MAX_ITER` iterations, or converges farther from its start than
+the branch moved over the last two steps (a sign of another branch's gait),
+the same search starts again from the neighbour's gait
+(:func:`jaxwalk.gait.find_gait`'s :class:`~jaxwalk.gait.Fallback`): at that
+visit a gait the order-zero start finds is not lost, and where both fail the
+order-zero start's failure is reported. Later visits of the line start from
+what this one found, so once a visit differs from the order-zero walk, later
+ones may too (measured: one point of 4096 on a 64 x 64 map, docs/engine.md
+section 5). The secant is used only after two converged consecutive visits of
+the walk (the seed counts as the visit before the first one of the walk
+down), for a next step in the walk's direction at most :data:`MAX_STEP_RATIO`
+times the last.
 """
 
 from __future__ import annotations
@@ -30,7 +37,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxwalk.gait import Gait, NewtonOptions, find_gait
+from jaxwalk.gait import Fallback, Gait, NewtonOptions, find_gait
 from jaxwalk.status import Status
 from jaxwalk.step import SolverOptions
 from jaxwalk.walker import Walker
@@ -65,7 +72,8 @@ class LineCarry(NamedTuple):
             converged gait, or the last start where a search failed) and whether it holds one.
         v_seed, have_seed: ``(n_v,)`` the seed point's gait (or the line's given
             start before the seed is visited), where the walk down restarts.
-        s_prev: the continuation parameter's value at the last visit.
+        s_prev: the continuation parameter's value at the last converged visit
+            (pairs with ``v_prev`` only where ``last_ok``).
         last_ok: the last visit's search converged (``v_prev`` is its gait).
         v_prev2, s_prev2, have_prev2: ``(n_v,)`` the gait before ``v_prev`` and
             its parameter value, and whether both are converged gaits of
@@ -86,14 +94,6 @@ class LineCarry(NamedTuple):
     seed_ok: Array
 
 
-def line_start(n_v: int, dtype, v_start: Array | None = None, have_start: Array | bool = False) -> LineCarry:
-    """The carry before a line's first visit: ``v_start`` where ``have_start``
-    (it then plays the model's initial guess's part throughout), else none."""
-    have = jnp.asarray(have_start, bool)
-    v0 = jnp.zeros(n_v, dtype) if v_start is None else jnp.where(have, jnp.asarray(v_start, dtype), 0.0)
-    return fresh_carry(v0, have)
-
-
 def fresh_carry(v0, have) -> LineCarry:
     """A :class:`LineCarry` that holds only a start ``v0`` (``(..., n_v)``) where ``have`` (``(...)``)."""
     no = jnp.zeros_like(have, dtype=bool) if isinstance(have, jax.Array) else np.zeros_like(have, dtype=bool)
@@ -101,13 +101,33 @@ def fresh_carry(v0, have) -> LineCarry:
     return LineCarry(v0, have, v0, have, zero, no, v0 * 0, zero, no, zero, no)
 
 
-def secant_start(carry: LineCarry, s: Array, from_seed: Array) -> tuple[Array, Array]:
-    """``(v, usable)``: the point at parameter ``s`` on the line through the
-    carry's last two gaits, and whether they allow it (two consecutive
-    converged visits, distinct parameter values, not a restart from the seed)."""
-    usable = carry.have_prev2 & carry.last_ok & ~from_seed & (carry.s_prev != carry.s_prev2)
-    ratio = (s - carry.s_prev) / jnp.where(usable, carry.s_prev - carry.s_prev2, 1.0)
-    return carry.v_prev + ratio * (carry.v_prev - carry.v_prev2), usable
+#: Iterations after which a search from the secant that has not converged is
+#: abandoned for the neighbour's gait (from a second-order start Newton needs 2-3).
+SECANT_MAX_ITER = 8
+#: Largest ratio of the next parameter step to the last one at which the secant
+#: extrapolates (its error grows with the ratio's square); beyond it the visit
+#: starts from the neighbour's gait.
+MAX_STEP_RATIO = 2.0
+#: Least ``max_jump`` (section units): below it a converged gait is never
+#: taken for another branch's (the step map's noise is about 1e-10).
+MIN_JUMP = 1e-6
+
+
+def secant_start(carry: LineCarry, s: Array, from_seed: Array) -> tuple[Array, Array, Array]:
+    """``(v, usable, max_jump)``: the point at parameter ``s`` on the line through
+    the carry's last two gaits; whether they allow it (two consecutive converged
+    visits of the walk, not a restart from the seed, the step to ``s`` in the
+    walk's direction and at most :data:`MAX_STEP_RATIO` times the last one);
+    and how far from it the gait found may lie before it is taken for
+    another branch's (the prediction's move plus the last step's, at least
+    :data:`MIN_JUMP`)."""
+    last = carry.s_prev - carry.s_prev2
+    ratio = (s - carry.s_prev) / jnp.where(last != 0.0, last, 1.0)
+    usable = carry.have_prev2 & carry.last_ok & ~from_seed & (last != 0.0) & (ratio > 0.0) & (ratio <= MAX_STEP_RATIO)
+    move = carry.v_prev - carry.v_prev2
+    v = carry.v_prev + ratio * move
+    max_jump = jnp.maximum((1.0 + ratio) * jnp.max(jnp.abs(move)), MIN_JUMP)
+    return v, usable, max_jump
 
 
 def after_visit(carry: LineCarry, v: Array, ok: Array, s: Array, from_seed: Array, is_first: Array,
@@ -157,7 +177,7 @@ def continue_segment(
         valid: ``(L,)`` False at padding visits: skipped (a real branch, not
             a masked one, as long as ``valid`` is not batched: every line of a
             call shares it), their gaits zeros and the carry unchanged.
-        carry: from the visit before (:func:`line_start` before the first).
+        carry: from the visit before (:func:`fresh_carry` before the first).
 
     Returns:
         The carry after the last visit, and a :class:`Gait` of ``(L,)`` leaves.
@@ -169,8 +189,9 @@ def continue_segment(
         start_ok = jnp.where(from_seed, carry.have_seed, carry.have_prev)
         v0 = jnp.where(start_ok, start_v, guess_fn(p))
         if newton.predictor == "secant":
-            v_secant, use = secant_start(carry, s, from_seed)
-            gait = find_gait(model, p, jnp.where(use, v_secant, v0), solver, newton, v_fallback=v0, use_fallback=use)
+            v_secant, use, max_jump = secant_start(carry, s, from_seed)
+            fallback = Fallback(v0, use, SECANT_MAX_ITER, max_jump)
+            gait = find_gait(model, p, jnp.where(use, v_secant, v0), solver, newton, fallback)
         else:
             gait = find_gait(model, p, v0, solver, newton)
         ok = gait.status == Status.OK

@@ -41,11 +41,13 @@ class NewtonOptions:
         max_iter: iterations before ``NO_CONVERGENCE``.
         max_update: an update larger than this (inf-norm) is scaled down to it,
             which keeps a poor start from jumping out of the section's domain.
-        predictor: where a continuation line starts Newton at its next point
-            (:mod:`jaxwalk.continuation`): ``"secant"``, on the line through
-            the gaits of the two points before, with the gait of the point
-            before as the fallback start; ``"previous"``, at the gait of the
-            point before (order zero).
+        predictor: where a sweep's continuation line starts Newton at its next
+            point (:mod:`jaxwalk.continuation`): ``"secant"``, on the line
+            through the gaits of the two points before, with the gait of the
+            point before as the fallback start; ``"previous"``, at the gait of
+            the point before (order zero). Other searches (``find_gait``
+            itself, ``bifurcation.follow``, the arclength continuation) start
+            where they are told and do not read it.
     """
 
     tol: float = 1e-8
@@ -191,8 +193,7 @@ def find_gait(
     v0: Float[Array, "n_v"],
     solver: SolverOptions = SolverOptions(),
     newton: NewtonOptions = NewtonOptions(),
-    v_fallback: Float[Array, "n_v"] | None = None,
-    use_fallback: Array | bool = False,
+    fallback: "Fallback | None" = None,
 ) -> Gait:
     """Newton-Raphson fixed point of the step map from ``v0`` (one config; vmap it).
 
@@ -201,23 +202,25 @@ def find_gait(
     After the update that falls below ``tol``, one more evaluation at the
     converged point gives the reported Jacobian, period and step length.
 
-    Where ``use_fallback`` (bool, traced), a search from ``v0`` that fails (any
-    status but OK) starts once more from ``v_fallback`` ``(n_v,)``, in the same
-    loop, and the result is that second search's (its status where it fails
-    too); :attr:`Gait.iterations` counts both. Continuation lines start from an
-    extrapolated point with the neighbour's gait as the fallback
-    (:mod:`jaxwalk.continuation`).
+    With a :class:`Fallback` whose ``use`` holds, a search from ``v0`` that
+    fails (any status but OK), has not converged after ``fallback.max_iter``
+    iterations, or converges farther than ``fallback.max_jump`` from ``v0``
+    starts once more from ``fallback.v``, in the same loop, and the result is
+    that second search's (its status where it fails too); :attr:`Gait.iterations`
+    counts both. Continuation lines start from an extrapolated point with the
+    neighbour's gait as the fallback (:mod:`jaxwalk.continuation`).
     """
     running = jnp.int8(Status.IN_PROGRESS)
     n_v, dtype = v0.shape[0], v0.dtype
     nan = jnp.full((), jnp.nan, dtype)
     zero = jnp.zeros((), jnp.int32)
     y0, _, ctx0 = jax.eval_shape(model.section_to_state, v0, params)  # the shapes of a step's state
-    fallback = v0 if v_fallback is None else jnp.asarray(v_fallback, dtype)
+    fallback = Fallback(v0, jnp.asarray(False)) if fallback is None else fallback
     carry0 = _Newton(v0, zero, running, jnp.asarray(False), jnp.full((n_v, n_v), jnp.nan, dtype), nan, nan, nan, zero, zero,
                      zero - 1, zero - 1, jnp.full(y0.shape, jnp.nan, y0.dtype), jnp.full(ctx0.shape, jnp.nan, ctx0.dtype),
-                     fallback, jnp.asarray(use_fallback, bool) & (v_fallback is not None), zero)
-    body = _fall_back(_newton_iteration(step_residual(model, params, solver), newton, jnp.eye(n_v, dtype=dtype)))
+                     jnp.asarray(fallback.use, bool), zero)
+    body = _newton_iteration(step_residual(model, params, solver), newton, jnp.eye(n_v, dtype=dtype))
+    body = _fall_back(body, v0, fallback)
 
     def cond(c: _Newton):
         # The status ends the loop (NO_CONVERGENCE once k reaches max_iter, and
@@ -244,8 +247,7 @@ class _Newton(NamedTuple):
     guard: Array  # int32, the guard of its last event (StepResult.guard)
     y_end: Array  # (2 n_q,) the state where it stopped
     ctx_end: Array  # (n_ctx,)
-    fallback: Array  # (n_v,) the second start
-    has_fallback: Array  # bool: a failure starts again from ``fallback`` (once)
+    has_fallback: Array  # bool: the first search, which may still start again from its fallback (once)
     spent: Array  # int32, iterations of a search abandoned for the fallback
 
 
@@ -293,16 +295,39 @@ def _newton_iteration(residual, newton: NewtonOptions, eye: Array):
     return body
 
 
-def _fall_back(body):
-    """``body`` (a :class:`_Newton` step) with a failed search restarted once from
-    the carry's fallback start: ``k`` counts the new search, ``spent`` the old."""
+class Fallback(NamedTuple):
+    """A second start for :func:`find_gait` (one configuration; batch shape in front under vmap).
+
+    Attributes:
+        v: ``(n_v,)`` the second start.
+        use: bool; False: no second search.
+        max_iter: int32, iterations after which a first search not yet
+            converged is abandoned for the second.
+        max_jump: a first search that converges farther than this from its
+            start (largest component, section units) is abandoned for the
+            second: a sign that it reached another gait than the one meant.
+    """
+
+    v: Array
+    use: Array
+    max_iter: Array | int = 1 << 30
+    max_jump: Array | float = float("inf")
+
+
+def _fall_back(body, v0: Array, fallback: Fallback):
+    """``body`` (a :class:`_Newton` step) with the search from ``v0`` restarted
+    once from ``fallback.v`` where it fails, stalls or jumps (:class:`Fallback`):
+    ``k`` counts the new search, ``spent`` the old."""
     running = jnp.int8(Status.IN_PROGRESS)
 
     def wrapped(carry: _Newton) -> _Newton:
         new = body(carry)
-        retry = carry.has_fallback & (new.status != running) & (new.status != Status.OK)
+        failed = (new.status != running) & (new.status != Status.OK)
+        stalled = (new.status == running) & (new.k >= fallback.max_iter)
+        jumped = (new.status == Status.OK) & (jnp.max(jnp.abs(new.v - v0)) > fallback.max_jump)
+        retry = carry.has_fallback & (failed | stalled | jumped)
         return new._replace(
-            v=jnp.where(retry, carry.fallback, new.v),
+            v=jnp.where(retry, fallback.v, new.v),
             k=jnp.where(retry, 0, new.k),
             status=jnp.where(retry, running, new.status),
             converged=new.converged & ~retry,

@@ -40,7 +40,7 @@ class SegmentInputs(NamedTuple):
 
     position: Float[Array, " L"]  # the continuation parameter's value at the visit
     restart: Bool[Array, " L"]  # the visit starts again from the line's seed
-    first: Bool[Array, " L"]  # the segment's first visit
+    first: Bool[Array, " L"]  # the line's first visit (its seed point)
     visit_valid: Bool[Array, " L"]  # a real visit, not padding; the same on every line
     carry: LineCarry  # the line's state before the segment's first visit
 
@@ -133,9 +133,10 @@ def fill_from_neighbours(model: Walker, lines: Mapping[str, np.ndarray], positio
     candidates (a failed point with a found neighbour not yet tried from that
     side) as one-visit lines of the same ``program`` (no new compile); a found
     gait makes its other neighbour a candidate. Block-independent: a line's
-    result depends on its own points only. Each search starts as the walk's
-    would have from that side: on the secant through the neighbour's gait and
-    the next one beyond it where that is found too (``NewtonOptions.predictor``).
+    result depends on its own points only. Each search starts on the secant
+    through the neighbour's gait and the one beyond it where that is found too
+    (``NewtonOptions.predictor``), with the neighbour's gait as the fallback:
+    as the walk did past its first two points in that direction.
 
     Args:
         lines: the parameters, ``(n_lines, n)`` each; ``gaits``: their

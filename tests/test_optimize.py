@@ -38,6 +38,13 @@ def test_good_config_resolves():
     assert maximise.problem.sign == -1.0 and maximise.problem.objective == "speed"
 
 
+def test_solver_settings_reach_the_optimiser_as_they_reach_a_sweep():
+    from jaxwalk.optimize.output import solver_options
+
+    solver, newton = solver_options(parse(GOOD + '[analysis]\nrtol = 1e-9\nmax_newton_iter = 30\npredictor = "previous"\n'))
+    assert (solver.rtol, newton.max_iter, newton.predictor) == (1e-9, 30, "previous")
+
+
 @pytest.mark.parametrize(
     "old, new, message",
     [

@@ -78,7 +78,7 @@ def test_a_rerun_loads_the_program_and_computes_the_same(disk_cache, tmp_path):
 def test_exported_program_equals_the_traced_one(disk_cache):
     program = segment_program(MODEL, OPTIONS.solver, OPTIONS.newton)
     lines = {k: v.T for k, v in G.parameter_grid(MODEL, {}, GRID).items()}  # (m_h, gamma): lines along gamma
-    rows = segment_inputs(MODEL, lines, seed=3)[0][0]
+    rows = segment_inputs(MODEL, lines, GRID["gamma"], seed=3)[0][0]
     plain = program(rows)
     exported = program_cache.lower(program, rows).compile()(rows)
     for a, b in zip(jax.tree_util.tree_leaves(plain), jax.tree_util.tree_leaves(exported)):

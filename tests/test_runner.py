@@ -27,10 +27,10 @@ def results_of(path):
 
 
 def test_solver_settings_reach_the_analysis_options(tmp_path, fake_analysis):
-    config = loads_config(COMPASS_2D + "rtol = 1e-9\natol = 1e-11\nnewton_tol = 1e-7\nmax_newton_iter = 40\n")
+    config = loads_config(COMPASS_2D + 'rtol = 1e-9\natol = 1e-11\nnewton_tol = 1e-7\nmax_newton_iter = 40\npredictor = "previous"\n')
     options = analysis_options(config)
     assert (options.solver.rtol, options.solver.atol) == (1e-9, 1e-11)
-    assert (options.newton.tol, options.newton.max_iter) == (1e-7, 40)
+    assert (options.newton.tol, options.newton.max_iter, options.newton.predictor) == (1e-7, 40, "previous")
     defaults = AnalysisOptions()
     assert options.solver.solver == defaults.solver.solver and options.chunk_size == defaults.chunk_size
     assert analysis_options(loads_config(COMPASS_2D)) == defaults
@@ -42,6 +42,7 @@ def test_solver_settings_reach_the_analysis_options(tmp_path, fake_analysis):
     assert list(call["grid"]) == ["m_h", "gamma"] and call["continuation_axis"] == "gamma"
     assert call["fixed"] == {p: s.default for p, s in call["model"].param_specs.items() if p not in ("m_h", "gamma")}
     assert json.loads(results_of(path).attrs["analysis_options"])["newton"]["tol"] == 1e-7
+    assert json.loads(results_of(path).attrs["analysis_options"])["newton"]["predictor"] == "previous"
 
 
 def test_h_max_reaches_the_analysis_options(tmp_path, fake_analysis):

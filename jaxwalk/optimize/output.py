@@ -25,14 +25,13 @@ import xarray as xr
 from jaxwalk import analyses, outputs
 from jaxwalk.optimize.config import OptimizeConfig
 from jaxwalk.optimize.engine import QUANTITIES, Path, optimise
+from jaxwalk.configs import NEWTON_FIELDS, SOLVER_FIELDS
 from jaxwalk.errors import ConfigError
 from jaxwalk.files import check_output as check_dataset_output
 from jaxwalk.files import provenance, write_zarr
 from jaxwalk.status import Status, flag_attributes
 from jaxwalk.sweep.dataset import output_units, units_note
 
-_NEWTON_FIELDS = {"newton_tol": "tol", "max_newton_iter": "max_iter"}
-_SOLVER_FIELDS = {"rtol": "rtol", "atol": "atol"}
 
 
 def solver_options(config: OptimizeConfig):
@@ -40,8 +39,8 @@ def solver_options(config: OptimizeConfig):
     from jaxwalk.gait import NewtonOptions
     from jaxwalk.step import SolverOptions
 
-    solver = dataclasses.replace(SolverOptions(), **{_SOLVER_FIELDS[k]: v for k, v in config.solver.items() if k in _SOLVER_FIELDS})
-    newton = dataclasses.replace(NewtonOptions(), **{_NEWTON_FIELDS[k]: v for k, v in config.solver.items() if k in _NEWTON_FIELDS})
+    solver = dataclasses.replace(SolverOptions(), **{SOLVER_FIELDS[k]: v for k, v in config.solver.items() if k in SOLVER_FIELDS})
+    newton = dataclasses.replace(NewtonOptions(), **{NEWTON_FIELDS[k]: v for k, v in config.solver.items() if k in NEWTON_FIELDS})
     return solver, newton
 
 

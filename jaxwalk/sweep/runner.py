@@ -49,6 +49,7 @@ import numpy as np
 from jaxwalk import analyses
 from jaxwalk.analyses import gait, step_down
 from jaxwalk.analyses.step_down import ANALYSIS as step_down_analysis
+from jaxwalk.configs import NEWTON_FIELDS, SOLVER_FIELDS
 from jaxwalk.errors import ConfigError
 from jaxwalk.files import check_output as check_output  # the output directory and dataset check
 from jaxwalk.models import get_model
@@ -61,9 +62,6 @@ Analyse = Callable[..., Mapping[str, np.ndarray]]
 RESULT_KEYS = {o.name: bool(o.trailing) for o in gait.OUTPUTS}
 #: Result arrays of the step-down test (``[analysis] h_max``, :mod:`jaxwalk.analyses.step_down`), all of the grid's shape.
 STEP_DOWN_KEYS = tuple(o.name for o in step_down.OUTPUTS)
-#: ``[analysis]`` keys and the ``NewtonOptions`` / ``SolverOptions`` fields they set.
-_NEWTON_FIELDS = {"newton_tol": "tol", "max_newton_iter": "max_iter", "predictor": "predictor"}
-_SOLVER_FIELDS = {"rtol": "rtol", "atol": "atol"}
 
 
 def run_sweep(
@@ -259,8 +257,8 @@ def analysis_options(config: SweepConfig):
     from jaxwalk.grid import AnalysisOptions
 
     base = AnalysisOptions()
-    solver = dataclasses.replace(base.solver, **{_SOLVER_FIELDS[k]: v for k, v in config.solver.items() if k in _SOLVER_FIELDS})
-    newton = dataclasses.replace(base.newton, **{_NEWTON_FIELDS[k]: v for k, v in config.solver.items() if k in _NEWTON_FIELDS})
+    solver = dataclasses.replace(base.solver, **{SOLVER_FIELDS[k]: v for k, v in config.solver.items() if k in SOLVER_FIELDS})
+    newton = dataclasses.replace(base.newton, **{NEWTON_FIELDS[k]: v for k, v in config.solver.items() if k in NEWTON_FIELDS})
     fields, more = {}, []
     for analysis, resolved in analyses.active(config):
         grid_options = analysis.grid_options(resolved) if analysis.name != "gait" else None
