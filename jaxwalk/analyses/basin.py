@@ -147,6 +147,27 @@ def targets_of(block: Block) -> tuple[np.ndarray, np.ndarray]:
     return codes, v[..., None, :]
 
 
+def _run_with_progress(block: Block, program, rows):
+    """``block.run(program, rows)`` one gait per worker thread at a time, under a
+    :func:`jaxwalk.progress.stage` bar: a flat-foot gait's basin takes minutes
+    (hundreds of walks, one at a time), a block's several gaits as many minutes
+    with the sweep's own bar standing still. Each row is computed alone, so the
+    grouping leaves every result as it is."""
+    import jax
+
+    from jaxwalk.progress import stage
+    from jaxwalk.workers import thread_count
+
+    n, group = len(rows.inputs.v_star), thread_count()
+    parts = []
+    with stage(f"basin, {n} gaits", n, "gait") as advance:
+        for first in range(0, n, group):
+            part = jax.tree_util.tree_map(lambda x, first=first: np.asarray(x)[first : first + group], rows)
+            parts.append(block.run(program, part))
+            advance(min(group, n - first))
+    return jax.tree_util.tree_map(lambda *xs: np.concatenate(xs), *parts)
+
+
 class BasinAnalysis(Analysis):
     name = "basin"
     keys = ("basin",)
@@ -189,7 +210,7 @@ class BasinAnalysis(Analysis):
             at = block.rows_at_gaits()
             start = BasinStart(at.inputs.v_star[where], targets.reshape((-1,) + targets.shape[len(shape):])[where])
             rows = Rows({k: x[where] for k, x in at.params.items()}, start)
-            found = block.run(_program(block.model, items, block.options.solver), rows)
+            found = _run_with_progress(block, _program(block.model, items, block.options.solver), rows)
             for key, field in (("basin_fraction", "fraction"), ("basin_fraction_error", "fraction_error"),
                                ("basin_radius", "radius"), ("basin_ray_radius", "ray_radius")):
                 flat = out[key].reshape((-1,) + out[key].shape[len(shape):])
