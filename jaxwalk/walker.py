@@ -106,6 +106,7 @@ class Walker:
         ground_next: index in ``ctx`` of the ground height at the next touchdown
             (the step-down capability), or ``None``.
         lockstep_batch: configurations one worker thread runs together in a grid analysis.
+        basin_radius, basin_scale: the basin measure's ball of starts by default.
 
     Models are compared and hashed by value, their class and instance
     attributes (which must be hashable): every jitted program closes over its
@@ -140,6 +141,14 @@ class Walker:
     #: (:meth:`with_ground_drop`). ``None``: the model always lands on the
     #: slope, and the analyses that lower the ground refuse it.
     ground_next: int | None = None
+    #: The ball of starts of the basin measure where a config names none
+    #: (``[analysis] basin``'s ``radius`` and ``scale``: the Euclidean norm of
+    #: ``(v - v*) / scale``, ``scale`` ``(n_v,)`` in each section coordinate's
+    #: units, ``None`` for 1): about the basin's half-width at the model's
+    #: default gait, so that the ball lies neither wholly inside nor wholly
+    #: outside typical basins (measured per model, docs/global_stability.md).
+    basin_radius: float = 0.01
+    basin_scale: tuple[float, ...] | None = None
 
     def _identity(self) -> tuple:
         return type(self), tuple(sorted(vars(self).items()))

@@ -161,6 +161,38 @@ def test_analysis_defaults_are_the_measure_defaults():
     assert DEFAULTS == {f.name: f.default for f in dataclasses.fields(BasinOptions)}
 
 
+@pytest.mark.parametrize("model_name, given, radius, scale", [
+    ("simplest", {}, 0.01, None),  # the simplest walker's ball: unscaled
+    ("compass", {}, 1.0, [0.026, 0.1, 1.1]),
+    ("flatfoot", {}, 1.0, [0.12, 0.25]),
+    ("flatfoot", {"radius": 0.5}, 0.5, [0.12, 0.25]),  # a radius in the model's norm
+    ("flatfoot", {"scale": [1.0, 2.0]}, 1.0, [1.0, 2.0]),
+])
+def test_the_ball_is_the_models_where_the_config_names_none(model_name, given, radius, scale):
+    """A sweep's resolved basin settings (written to its dataset) and the Python
+    options name the same ball: the model's radius and scale where none is given."""
+    from jaxwalk.sweep.config import parse_config
+
+    axis = {"simplest": "gamma", "compass": "gamma", "flatfoot": "r"}[model_name]
+    config = parse_config({"name": "b", "model": model_name, "grid": {axis: {"values": [0.009 if axis == "gamma" else 0.4]}},
+                           "analysis": {"basin": given or True}})
+    resolved = config.analyses["basin"]
+    assert resolved["radius"] == radius and resolved.get("scale") == scale
+    options = BasinOptions(**{k: tuple(v) if isinstance(v, list) else v for k, v in given.items()})
+    ball = options.for_model(get_model(model_name))
+    assert ball.radius == radius and ball.scale == (None if scale is None else tuple(scale))
+
+
+def test_tol_must_be_below_the_models_radius():
+    from jaxwalk.errors import ConfigError
+    from jaxwalk.sweep.config import parse_config
+
+    with pytest.raises(ConfigError, match=r"tol \(0.02\) must be below radius \(0.01\)"):
+        parse_config({"name": "b", "model": "simplest", "grid": {"gamma": {"values": [0.009]}},
+                      "analysis": {"basin": {"tol": 0.02}}})
+    parse_config({"name": "b", "model": "flatfoot", "grid": {"r": {"values": [0.4]}}, "analysis": {"basin": {"tol": 0.02}}})
+
+
 # ---------------------------------------------------------------- jaxwalk basin
 
 BASIN_TOML = """

@@ -150,6 +150,11 @@ class Analysis:
     def check_model(self, resolved: Any, model, fail) -> None:
         """Refuse a model the analysis cannot run on (``fail(message)``); default: any."""
 
+    def for_model(self, resolved: Any, model) -> Any:
+        """The checked setting with what ``model`` decides filled in (the resolved
+        config says every value the run uses); default: as it is."""
+        return resolved
+
     # ------------------------------------------------------------ the grid
 
     def grid_options(self, resolved: Any) -> Any:

@@ -44,7 +44,7 @@ class Settings(Table):
     where: ClassVar[str] = "[analysis] basin"
     must: ClassVar[str] = "{where}: {key} must be {what}, got {value!r}"
 
-    radius: float = field(0.01, "a positive number (scaled section norm)", gt=0, allow_inf_nan=False)  # of the ball of starts
+    radius: float | None = field(None, "a positive number (scaled section norm)", gt=0, allow_inf_nan=False)  # of the ball of starts
     samples: int = field(256, "an integer >= 2", ge=2)  # random starts in the ball
     steps: int = field(60, "an integer >= 1", ge=1)  # most steps walked from a start
     tol: float = field(1e-4, "a positive number (scaled section norm)", gt=0, allow_inf_nan=False)  # "returned" within this
@@ -56,7 +56,8 @@ class Settings(Table):
     seed: int = field(0, "an integer >= 0", ge=0)  # of the random starts
 
 
-#: ``[analysis] basin`` keys and their defaults (``scale``, ``coordinates``: ``None``, every coordinate alike).
+#: ``[analysis] basin`` keys and their defaults (``radius``, ``scale``: ``None``, the model's;
+#: ``coordinates``: ``None``, every coordinate).
 DEFAULTS: dict[str, Any] = {k: info.default for k, info in Settings.model_fields.items()}
 
 
@@ -109,15 +110,23 @@ def options_of_items(model, items: tuple) -> dict[str, Any]:
     return fields
 
 
-def resolve(given: Settings, written, fail) -> dict[str, Any]:
-    """The resolved settings (TOML/JSON-ready) of a checked table and the keys ``written``:
-    every default but ``scale`` and ``coordinates``, which appear only when given
-    (after the others, in the order written: a resolved config keeps its fingerprint)."""
+def resolve(given: Settings, written) -> dict[str, Any]:
+    """The settings (TOML/JSON-ready) of a checked table and the keys ``written``:
+    every default but ``radius``, ``scale`` and ``coordinates``, which appear only
+    when given (after the others, in the order written) until :func:`with_model`."""
     values = given.model_dump()
     out = {k: v for k, v in DEFAULTS.items() if v is not None}
     out.update((k, values[k]) for k in written)
-    if out["tol"] >= out["radius"]:
-        raise fail(f"{Settings.where}: tol ({out['tol']}) must be below radius ({out['radius']})")
+    return out
+
+
+def with_model(resolved: dict[str, Any], model) -> dict[str, Any]:
+    """``resolved`` with the model's ball where none is given: ``radius`` first (where
+    it always stood), ``scale`` after the others (:attr:`Walker.basin_radius`,
+    :attr:`Walker.basin_scale`; no ``scale`` where the model has none)."""
+    out = {"radius": model.basin_radius, **resolved}
+    if "scale" not in out and model.basin_scale is not None:
+        out["scale"] = list(model.basin_scale)
     return out
 
 
@@ -180,11 +189,20 @@ class BasinAnalysis(Analysis):
         if given is None:
             return None
         written = table["basin"] if given.model_fields_set else ()  # true: nothing written
-        return resolve(given, written, fail)
+        return resolve(given, written)
 
     def check_model(self, resolved, model, fail) -> None:
-        if resolved is not None:
-            check_section(resolved, model, fail)
+        """The section's names and sizes, and ``tol`` below the ball's radius (the model's
+        where none is given)."""
+        if resolved is None:
+            return
+        check_section(resolved, model, fail)
+        radius = resolved.get("radius", model.basin_radius)
+        if resolved["tol"] >= radius:
+            raise fail(f"{Settings.where}: tol ({resolved['tol']}) must be below radius ({radius})")
+
+    def for_model(self, resolved, model):
+        return None if resolved is None else with_model(resolved, model)
 
     def fullest(self):
         return dict(DEFAULTS)

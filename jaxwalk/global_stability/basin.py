@@ -18,8 +18,10 @@ cycle it settles on (``[analysis] attractors``' points, any period).
 
 **Norm.** Distances and radii are Euclidean in scaled coordinates,
 ``|dv|_s = sqrt(sum_i (dv_i / scale_i)^2)``, ``scale_i`` in the coordinate's
-own units (default 1: rad and rad per model time unit), so radii are
-dimensionless. Only the section coordinates named in ``coordinates`` are
+own units, so radii are dimensionless. Where the options leave ``radius`` or
+``scale`` unset (``None``) the model's are used (:attr:`Walker.basin_radius`,
+:attr:`Walker.basin_scale`: about its default gait's basin; a ``None`` scale
+is 1 for every coordinate). Only the section coordinates named in ``coordinates`` are
 perturbed (default: all); the others stay at ``v*``. ``d`` below is their number.
 
 **Basin fraction.** ``samples`` starts uniform in the ``d``-ball of radius
@@ -64,19 +66,19 @@ class BasinOptions:
     """Settings of the basin measure (hashable; module docstring for their meaning).
 
     Attributes:
-        radius: the ball's radius (scaled norm, dimensionless).
+        radius: the ball's radius (scaled norm, dimensionless); ``None``: the model's.
         samples: random starts in the ball.
         steps: most steps walked from a start.
         tol: a start has returned when within this of the target cycle (scaled norm).
         directions: rays of the radius search.
         scan: evenly spaced starts per ray before bisection.
         bisections: bisections of the first failing scan interval.
-        scale: ``(n_v,)`` each section coordinate's scale, its own units; ``None``: all 1.
+        scale: ``(n_v,)`` each section coordinate's scale, its own units; ``None``: the model's.
         coordinates: indices of the perturbed section coordinates; ``None``: all.
         seed: of the ball's points (and of the ``d >= 3`` directions).
     """
 
-    radius: float = 0.01
+    radius: float | None = None
     samples: int = 256
     steps: int = 60
     tol: float = 1e-4
@@ -87,7 +89,16 @@ class BasinOptions:
     coordinates: tuple[int, ...] | None = None
     seed: int = 0
 
+    def for_model(self, model: Walker) -> "BasinOptions":
+        """These options with an unset ``radius`` and ``scale`` taken from ``model``."""
+        return dataclasses.replace(
+            self,
+            radius=model.basin_radius if self.radius is None else self.radius,
+            scale=model.basin_scale if self.scale is None else self.scale,
+        )
+
     def scales(self, n_v: int) -> np.ndarray:
+        """``(n_v,)`` the scale of each section coordinate (1 where ``scale`` is ``None``)."""
         return np.ones(n_v) if self.scale is None else np.asarray(self.scale, np.float64)
 
     def perturbed(self, n_v: int) -> tuple[int, ...]:
@@ -190,6 +201,7 @@ def basin(model: Walker, params, v_star: Array, targets: Array, options: BasinOp
           solver: SolverOptions = SolverOptions()) -> Basin:
     """The basin fraction and ray radii of the gait at ``v_star`` (one configuration; vmap
     or ``lax.map`` it). ``targets``: ``(P, n_v)`` the cycle returned to (NaN rows ignored)."""
+    options = options.for_model(model)
     n_v = v_star.shape[0]
     coords = options.perturbed(n_v)
     scale = jnp.asarray(options.scales(n_v), v_star.dtype)

@@ -63,6 +63,12 @@ class CompassWalker(Walker):
     context = ("x_stance", "ground_next")
     ground_next = GROUND_NEXT
     section_names = ("alpha_1", "alpha_1_dot", "alpha_2_dot")
+    # The basin of the default gait is thin in alpha_1 and alpha_1_dot and long
+    # in alpha_2_dot (ray extents along the signed axes, unscaled: 0.018 / 0.035,
+    # 0.062 / 0.14-0.20, 0.89 / 1.37; docs/global_stability.md): each scale is
+    # the mean of its axis's two extents.
+    basin_radius = 1.0
+    basin_scale = (0.026, 0.1, 1.1)
     n_constraints = 4  # stance foot (x, y), swing foot (x, y)
     units = {"length": "m", "time": "s"}
 

@@ -114,6 +114,11 @@ class KneedWalker(Walker):
     context = ("x_stance", "y_stance", "ground_next")
     ground_next = GROUND_NEXT
     section_names = ("alpha_1", "alpha_1_dot", "alpha_2_dot")
+    # As the compass gait's (its ray extents along the signed axes at the
+    # default gait, unscaled: 0.032 / 0.029, 0.088 / 0.25, 1.18 / 1.46;
+    # docs/global_stability.md): each scale the mean of its axis's two extents.
+    basin_radius = 1.0
+    basin_scale = (0.031, 0.17, 1.3)
     # stance foot (x, y), stance knee lock, swing knee lock, swing foot (x, y)
     n_constraints = 6
     #: Whether the stance knee's lock is a bare stop (pushes only) rather than a latch.

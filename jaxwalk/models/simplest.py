@@ -31,6 +31,12 @@ class SimplestWalker(CompassWalker):
     parameters = (
         ParamSpec("gamma", 0.009, "rad", "slope angle (downhill positive)", lower=-0.5, upper=0.5),
     )
+    # Not the compass gait's ball: a ball of radius 0.01 rad (rad per unit
+    # time), unscaled, of which about a fifth returns at gamma 0.006-0.0105
+    # (the basin is a thin strip along d alpha_1 = -d alpha_1_dot;
+    # docs/global_stability.md).
+    basin_radius = 0.01
+    basin_scale = None
 
     def mass_model(self, params):
         one = jnp.ones_like(params["gamma"])

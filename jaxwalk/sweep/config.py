@@ -306,7 +306,7 @@ def _analyses(table, continuation, model, fail) -> dict[str, Any]:
         resolved = analysis.parse(table, fail, continuation=continuation)
         if resolved != analysis.off:
             analysis.check_model(resolved, model, fail)
-            out[analysis.name] = resolved
+            out[analysis.name] = analysis.for_model(resolved, model)
     return out
 
 

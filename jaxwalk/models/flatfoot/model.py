@@ -136,6 +136,10 @@ class FlatFootWalker(Walker):
     context = ph.CONTEXT
     ground_next = ph.C["ground_next"]
     section_names = ("psi", "psi_dot")
+    # The half-spans of the default (shoe) gait's basin image
+    # (sweeps/basin_flatfoot_shoe.toml; docs/global_stability.md).
+    basin_radius = 1.0
+    basin_scale = (0.12, 0.25)
     n_constraints = ph.N_CONSTRAINTS
     # One configuration (or continuation line) at a time per device: where the
     # swing scuffs, falls or stalls, a step, a Newton search or a drop costs
