@@ -28,27 +28,29 @@ def test_bars_off_inside_shown_false(at_once, capsys):
     assert capsys.readouterr().err == ""
 
 
-def test_the_basin_runs_a_thread_s_worth_of_gaits_per_call_under_its_bar(at_once, capsys, monkeypatch):
-    """A sweep's basin (hundreds of walks per gait) advances its bar per call of
-    one gait per worker thread, and hands back every row's result in order."""
+@pytest.mark.parametrize("per_thread, calls", [(1, [2, 2, 1]), (2, [4, 1])])
+def test_slow_analyses_run_a_sub_batch_per_thread_per_call_under_their_bar(at_once, capsys, monkeypatch, per_thread, calls):
+    """A sweep's basin and h_max (seconds to minutes per flat-foot gait) advance a
+    bar per call of one sub-batch per worker thread, and hand back every row's
+    result in order."""
     from types import SimpleNamespace
 
     import numpy as np
 
-    from jaxwalk.analyses import basin
+    from jaxwalk.analyses.base import run_with_bar
     from jaxwalk.batching import Rows
     from jaxwalk.global_stability.basin import Basin as basin_result, BasinStart
 
     monkeypatch.setattr("jaxwalk.workers.thread_count", lambda: 2)
-    calls = []
+    seen = []
 
     def run(program, rows):
-        calls.append(len(rows.inputs.v_star))
+        seen.append(len(rows.inputs.v_star))
         return basin_result(rows.params["gamma"] * 2, *([None] * 4))
 
     rows = Rows({"gamma": np.arange(5.0)}, BasinStart(np.zeros((5, 3)), np.zeros((5, 1, 3))))
     with progress.shown():
-        found = basin._run_with_progress(SimpleNamespace(run=run), None, rows)
-    assert calls == [2, 2, 1]
+        found = run_with_bar(SimpleNamespace(run=run), None, rows, "basin", "gait", per_thread)
+    assert seen == calls
     np.testing.assert_array_equal(found.fraction, np.arange(5.0) * 2)
     assert "basin, 5 gaits" in capsys.readouterr().err

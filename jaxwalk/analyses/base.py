@@ -81,6 +81,35 @@ class Block:
         return Rows({k: np.asarray(x).reshape(-1) for k, x in self.params.items()}, AtGait(v.reshape(-1, v.shape[-1])))
 
 
+def run_with_bar(block: Block, program, rows, desc: str, unit: str, per_thread: int = 1):
+    """``block.run(program, rows)`` in calls of ``per_thread`` rows per worker thread,
+    under a :func:`jaxwalk.progress.stage` bar (``"<desc>, N <unit>s"``, with the
+    time left): an analysis whose rows take seconds each (a flat-foot gait's
+    step-down search or basin) would otherwise leave the sweep's bar standing
+    still for many minutes. With ``per_thread`` the program's sub-batch, each
+    group of rows meets the same lockstep partners as in one call of all of
+    them (every ``n``-th row to thread ``i``, consecutive sub-batches, padded
+    sub-batches skipped) wherever the rows fit one chunk of ``block.run`` (a
+    block of the default 256 points does) or the chunk is a multiple of the
+    group: then the split leaves every result bit for bit as it is. With
+    sub-batches of one (the flat-foot walker, the basin's one gait per row) it
+    always does."""
+    import jax
+
+    from jaxwalk.progress import stage
+    from jaxwalk.workers import thread_count
+
+    n = len(jax.tree_util.tree_leaves(rows)[0])
+    group = thread_count() * per_thread
+    parts = []
+    with stage(f"{desc}, {n} {unit}s", n, unit) as advance:
+        for first in range(0, n, group):
+            part = jax.tree_util.tree_map(lambda x, first=first: np.asarray(x)[first : first + group], rows)
+            parts.append(block.run(program, part))
+            advance(min(group, n - first))
+    return jax.tree_util.tree_map(lambda *xs: np.concatenate(xs), *parts)
+
+
 class AtGait(NamedTuple):
     """A program's input beside the parameters: the row's gait (:meth:`Block.rows_at_gaits`)."""
 

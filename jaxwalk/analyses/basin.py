@@ -28,7 +28,7 @@ import numpy as np
 from pydantic import Field
 
 from jaxwalk import outputs as schema
-from jaxwalk.analyses.base import Analysis, Block, did_you_mean, switch
+from jaxwalk.analyses.base import Analysis, Block, did_you_mean, run_with_bar, switch
 from jaxwalk.configs import Distinct, Table, field
 from jaxwalk.outputs import Output
 from jaxwalk.status import Status
@@ -156,27 +156,6 @@ def targets_of(block: Block) -> tuple[np.ndarray, np.ndarray]:
     return codes, v[..., None, :]
 
 
-def _run_with_progress(block: Block, program, rows):
-    """``block.run(program, rows)`` one gait per worker thread at a time, under a
-    :func:`jaxwalk.progress.stage` bar: a flat-foot gait's basin takes minutes
-    (hundreds of walks, one at a time), a block's several gaits as many minutes
-    with the sweep's own bar standing still. Each row is computed alone, so the
-    grouping leaves every result as it is."""
-    import jax
-
-    from jaxwalk.progress import stage
-    from jaxwalk.workers import thread_count
-
-    n, group = len(rows.inputs.v_star), thread_count()
-    parts = []
-    with stage(f"basin, {n} gaits", n, "gait") as advance:
-        for first in range(0, n, group):
-            part = jax.tree_util.tree_map(lambda x, first=first: np.asarray(x)[first : first + group], rows)
-            parts.append(block.run(program, part))
-            advance(min(group, n - first))
-    return jax.tree_util.tree_map(lambda *xs: np.concatenate(xs), *parts)
-
-
 class BasinAnalysis(Analysis):
     name = "basin"
     keys = ("basin",)
@@ -228,11 +207,12 @@ class BasinAnalysis(Analysis):
             at = block.rows_at_gaits()
             start = BasinStart(at.inputs.v_star[where], targets.reshape((-1,) + targets.shape[len(shape):])[where])
             rows = Rows({k: x[where] for k, x in at.params.items()}, start)
-            found = _run_with_progress(block, _program(block.model, items, block.options.solver), rows)
-            for key, field in (("basin_fraction", "fraction"), ("basin_fraction_error", "fraction_error"),
-                               ("basin_radius", "radius"), ("basin_ray_radius", "ray_radius")):
+            # A flat-foot gait's basin is hundreds of walks, one at a time: minutes.
+            found = run_with_bar(block, _program(block.model, items, block.options.solver), rows, "basin", "gait")
+            for key, name in (("basin_fraction", "fraction"), ("basin_fraction_error", "fraction_error"),
+                              ("basin_radius", "radius"), ("basin_ray_radius", "ray_radius")):
                 flat = out[key].reshape((-1,) + out[key].shape[len(shape):])
-                flat[where] = np.asarray(getattr(found, field))
+                flat[where] = np.asarray(getattr(found, name))
         return out
 
     def outputs(self, resolved=None) -> tuple[Output, ...]:

@@ -18,7 +18,7 @@ from typing import Any, ClassVar, Mapping
 
 import numpy as np
 
-from jaxwalk.analyses.base import Analysis, Block, row_program, switch
+from jaxwalk.analyses.base import Analysis, Block, row_program, run_with_bar, switch
 from jaxwalk.configs import Table, field
 from jaxwalk.outputs import Output
 from jaxwalk.status import Status
@@ -111,7 +111,9 @@ class StepDown(Analysis):
     def compute(self, block: Block) -> dict[str, np.ndarray]:
         status = block.results["status"]
         options = block.options
-        drops = block.run(_program(block.model, options.solver, options.step_down, block.sub_batch), block.rows_at_gaits())
+        program = _program(block.model, options.solver, options.step_down, block.sub_batch)
+        # Up to count drops of steps + 1 steps each per gait: seconds a flat-foot gait.
+        drops = run_with_bar(block, program, block.rows_at_gaits(), "h_max", "point", block.sub_batch)
         no_gait = status != 0  # no h_max without a gait: carry the gait's status
         return {
             "h_max": drops.h_max.reshape(status.shape),
