@@ -25,6 +25,8 @@ UNSTABLE = r"unstable gait ($\lambda_{\max} \geq 1$)"
 #: Characters per line of a long axis label: about what a 12-inch figure holds
 #: at the axes' font size; a longer parameter description goes on two lines.
 AXIS_LABEL_WIDTH = 90
+#: Characters per line of a figure's title (its first line: name, quantity, meaning).
+TITLE_CHARS = 100
 
 
 def _units(da: xr.DataArray) -> str:
@@ -65,6 +67,8 @@ def value_text(ds: xr.Dataset, axis: str, index: int) -> str:
 def figure_title(ds: xr.Dataset, name: str, fixed: dict[str, int]) -> str:
     """``"simplest_slope (simplest): lambda_max, local stability ... \\n at a = 0.4 m"``."""
     head = f"{ds.attrs.get('name', '?')} ({ds.attrs.get('model', '?')}): {SYMBOLS.get(name, name)}, {variable_meaning(ds, name)}"
+    # A long meaning (the gait sensitivity norm's) ran off both sides of the figure.
+    head = textwrap.fill(head, TITLE_CHARS, break_on_hyphens=False)
     if fixed:
         head += "\nat " + ", ".join(value_text(ds, a, i) for a, i in fixed.items())
     held = fixed_parameters_text(ds)
