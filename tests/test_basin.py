@@ -24,7 +24,7 @@ from jaxwalk import cli
 from jaxwalk.analyses.basin import DEFAULTS
 from jaxwalk.gait import find_gait
 from jaxwalk.global_stability.basin import BasinOptions, basin
-from jaxwalk.models import get_model
+from jaxwalk.models import MODELS, get_model
 from jaxwalk.status import Status
 from jaxwalk.step import step_map
 
@@ -181,6 +181,14 @@ def test_the_ball_is_the_models_where_the_config_names_none(model_name, given, r
     options = BasinOptions(**{k: tuple(v) if isinstance(v, list) else v for k, v in given.items()})
     ball = options.for_model(get_model(model_name))
     assert ball.radius == radius and ball.scale == (None if scale is None else tuple(scale))
+
+
+@pytest.mark.parametrize("model_name", sorted(MODELS))
+def test_every_models_ball_fits_its_section_and_the_default_tol(model_name):
+    model = get_model(model_name)
+    assert model.basin_radius > DEFAULTS["tol"]
+    if model.basin_scale is not None:
+        assert len(model.basin_scale) == len(model.section_names) and min(model.basin_scale) > 0
 
 
 def test_tol_must_be_below_the_models_radius():

@@ -464,3 +464,17 @@ def test_a_variable_that_asks_for_it_is_drawn_on_a_log_scale_where_it_spans_deca
     assert scales("decades") == (LogNorm, True, "log")
     for name in ("narrow", "with_zero", "unasked"):
         assert scales(name) == (Normalize, False, "linear"), name
+
+
+def test_figure_titles_wrap_between_words_and_outside_math():
+    """Every declared quantity's title stays inside a figure (TITLE_CHARS a line)
+    and never breaks inside a $...$ label."""
+    import xarray as xr
+
+    from jaxwalk.plot.labels import MEANINGS, SYMBOLS, TITLE_CHARS, figure_title
+
+    ds = xr.Dataset(attrs={"name": "flatfoot_human_measures_map", "model": "no_such_model"})
+    for name in sorted(set(SYMBOLS) | set(MEANINGS)):
+        title = figure_title(ds, name, {})
+        for line in title.splitlines():
+            assert len(line) <= TITLE_CHARS and line.count("$") % 2 == 0, (name, line)

@@ -81,26 +81,30 @@ class Block:
         return Rows({k: np.asarray(x).reshape(-1) for k, x in self.params.items()}, AtGait(v.reshape(-1, v.shape[-1])))
 
 
-def run_with_bar(block: Block, program, rows, desc: str, unit: str, per_thread: int = 1):
-    """``block.run(program, rows)`` in calls of ``per_thread`` rows per worker thread,
-    under a :func:`jaxwalk.progress.stage` bar (``"<desc>, N <unit>s"``, with the
-    time left): an analysis whose rows take seconds each (a flat-foot gait's
-    step-down search or basin) would otherwise leave the sweep's bar standing
-    still for many minutes. With ``per_thread`` the program's sub-batch, each
-    group of rows meets the same lockstep partners as in one call of all of
-    them (every ``n``-th row to thread ``i``, consecutive sub-batches, padded
-    sub-batches skipped) wherever the rows fit one chunk of ``block.run`` (a
-    block of the default 256 points does) or the chunk is a multiple of the
-    group: then the split leaves every result bit for bit as it is. With
-    sub-batches of one (the flat-foot walker, the basin's one gait per row) it
-    always does."""
+def run_with_bar(block: Block, program, rows, desc: str, unit: str, sub_batch: int = 1, per_call: int = 1):
+    """``block.run(program, rows)`` in calls of ``per_call`` sub-batches of ``sub_batch``
+    rows per worker thread, under a :func:`jaxwalk.progress.stage` bar
+    (``"<desc>, N <unit>s"``, with the time left): an analysis whose rows take
+    seconds each (a flat-foot gait's step-down search or basin) would otherwise
+    leave the sweep's bar standing still for many minutes. Each call waits for
+    its slowest thread, so rows of very uneven cost want ``per_call`` above 1.
+
+    With ``sub_batch`` the program's, each row meets the same lockstep partners
+    as in one call of all of them (every ``n``-th row to thread ``i``,
+    consecutive sub-batches, padded sub-batches skipped), and so the same
+    result bit for bit, wherever the rows fit one chunk of ``block.run`` (a
+    block of the default 256 points does) or that chunk is a multiple of a
+    call's rows; with sub-batches of one (the basin's one gait per row, the
+    flat-foot walker's nested engine) always. Elsewhere (a longer chunk than
+    the default cut at another multiple) partners change, and results with
+    them at the level of the integration noise."""
     import jax
 
     from jaxwalk.progress import stage
     from jaxwalk.workers import thread_count
 
     n = len(jax.tree_util.tree_leaves(rows)[0])
-    group = thread_count() * per_thread
+    group = thread_count() * sub_batch * per_call
     parts = []
     with stage(f"{desc}, {n} {unit}s", n, unit) as advance:
         for first in range(0, n, group):

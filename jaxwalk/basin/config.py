@@ -11,7 +11,9 @@ line, prefixed by the file, with a "did you mean" hint for a misspelt key.
   each coordinate's own units (rad, rad per model time unit, ...);
 * ``points``: ``[nx, ny]`` starts along x and y (default ``[101, 101]``);
 * ``steps``, ``tol``, ``scale``: as ``[analysis] basin`` (:mod:`jaxwalk.analyses.basin`):
-  most steps walked, return tolerance and per-coordinate scales of the norm.
+  most steps walked, return tolerance and per-coordinate scales of the norm;
+  unlike the sweep's, ``scale`` defaults to 1 for every coordinate, not the
+  model's (the image's window is its ``span``).
 """
 
 from __future__ import annotations

@@ -32,9 +32,8 @@ class SimplestWalker(CompassWalker):
         ParamSpec("gamma", 0.009, "rad", "slope angle (downhill positive)", lower=-0.5, upper=0.5),
     )
     # Not the compass gait's ball: a ball of radius 0.01 rad (rad per unit
-    # time), unscaled, of which about a fifth returns at gamma 0.006-0.0105
-    # (the basin is a thin strip along d alpha_1 = -d alpha_1_dot;
-    # docs/global_stability.md).
+    # time), unscaled, of which 0.28 returns at the default gamma (the basin is
+    # a thin strip along d alpha_1 = -d alpha_1_dot; docs/global_stability.md).
     basin_radius = 0.01
     basin_scale = None
 
