@@ -478,3 +478,27 @@ def test_figure_titles_wrap_between_words_and_outside_math():
         title = figure_title(ds, name, {})
         for line in title.splitlines():
             assert len(line) <= TITLE_CHARS and line.count("$") % 2 == 0, (name, line)
+
+
+def test_a_few_outliers_do_not_take_the_whole_linear_colour_scale():
+    """The shoe walker's gait sensitivity norm is 14.8-24.2 at 90 % of its gaits
+    and up to 232 next to a flip: the scale ends at the 99th percentile, the cells beyond
+    take the end colour, and the bar's arrow and label say how many and how far."""
+    from jaxwalk.plot.heatmap import linear_limits
+
+    ds = synthetic(GRID_2D)  # 60 gaits
+    lam = ds["lambda_max"]
+    bulk = 14.0 + 11.0 * (lam - lam.min()) / (lam.max() - lam.min())
+    ds["norm"] = bulk.where(lam < lam.max(), 230.0).assign_attrs(long_name="norm", units="1")
+    fig = heatmap_figure(ds, "norm", choose_layout(ds, "heatmap"))
+    norm = fig.axes[0].collections[0].norm
+    (bar,) = [a for a in fig.axes if a.get_label() == "<colorbar>"]
+    assert 20.0 < norm.vmax < 30.0 and norm.vmin == pytest.approx(14.0)
+    assert bar._colorbar.extend == "max" and "1 above, up to 230" in bar.get_ylabel()
+
+    # No outlier: the scale spans every value, and no arrow.
+    assert linear_limits(bulk.values.ravel()) == (pytest.approx(14.0), pytest.approx(25.0), "neither")
+    # Outliers at both ends.
+    both = np.concatenate([np.linspace(0.0, 1.0, 200), [-50.0, 60.0]])
+    low, high, extend = linear_limits(both)
+    assert extend == "both" and -1.0 < low < 0.1 and 0.9 < high < 2.0
