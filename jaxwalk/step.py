@@ -73,7 +73,7 @@ def solve_phase(model: Walker, params, y, phase, ctx, t0, g0: Float[Array, "n_gu
         y0=y,
         args=(params, phase, ctx),
         event=event,
-        stepsize_controller=diffrax.PIDController(rtol=opts.rtol, atol=opts.atol),
+        stepsize_controller=opts.make_controller(),
         max_steps=opts.max_solver_steps,
         adjoint=diffrax.ForwardMode(),
         throw=False,

@@ -150,3 +150,23 @@ def test_matches_independent_scipy_implementation(gamma):
     np.testing.assert_allclose(ours["fixed_point"][0], theirs.v, atol=1e-8)
     np.testing.assert_allclose(ours["lambda_max"][0], theirs.lambda_max, atol=1e-6)
     np.testing.assert_allclose(ours["period"][0], theirs.step_info["step_time"], atol=1e-8)
+
+
+def test_the_step_size_controller_settings_reach_the_solve():
+    """``SolverOptions.safety`` (and the PI coefficients) are the controller's:
+    the same step from Garcia's gait at diffrax's safety 0.9 and at the default
+    takes a different number of solver steps and lands on the same state."""
+    default = SolverOptions()
+    controller = SolverOptions(safety=0.6, pcoeff=0.1, icoeff=0.5).make_controller()
+    assert (controller.safety, controller.pcoeff, controller.icoeff) == (0.6, 0.1, 0.5)
+    assert (default.safety, default.pcoeff, default.icoeff) == (0.75, 0.0, 1.0)
+    params = {"gamma": jnp.asarray(GARCIA_GAMMA, jnp.float64)}
+    v = jnp.array([GARCIA_THETA, GARCIA_THETA_DOT, GARCIA_THETA_DOT * np.cos(2 * GARCIA_THETA)])
+    steps = {}
+    for safety in (0.9, default.safety):
+        v_next, res = jax.jit(lambda v_: step_map(MODEL, v_, params, SolverOptions(safety=safety)))(v)
+        assert int(res.status) == 0
+        steps[safety] = (int(res.ode_steps), np.asarray(v_next))
+    (n_a, v_a), (n_b, v_b) = steps.values()
+    assert n_a != n_b
+    np.testing.assert_allclose(v_a, v_b, atol=1e-8)
