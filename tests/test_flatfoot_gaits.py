@@ -94,6 +94,27 @@ def test_documented_step_matches_the_independent_scipy_walker(documented):
         assert abs(times[name] - float(res.ctx[ph.C["t_" + name]])) < 1e-7, name
 
 
+@pytest.mark.parametrize("changes", [{"ankle_rest": 0.1, "k": 0.05}, {"ankle_reset": 1.0, "k": 0.1}],
+                         ids=["ankle_rest", "ankle_reset"])
+def test_ankle_rest_angles_step_matches_the_independent_scipy_walker(changes):
+    """The ankle springs' rest angles written again in the SciPy reference: the
+    same step from the shoe gait, at a stiffer ankle, with the standing feet's
+    springs relaxed 0.1 rad plantarflexed (``ankle_rest``) or at the shank
+    angles of the step's toe-strike (``ankle_reset``), in both walkers."""
+    from tests.reference import flatfoot as ref
+
+    p, v, _, _, _ = _gait("shoe")
+    p = with_params(p, **changes)
+    v1, res = step_fn(v, p)
+    assert int(res.status) == Status.OK
+    v1_ref, info = ref.step_map(np.asarray(v), {k: float(x) for k, x in p.items()})
+    assert info["status"] == "ok"
+    np.testing.assert_allclose(v1_ref, np.asarray(v1), rtol=0.0, atol=1e-8)
+    assert abs(info["time"] - float(res.time)) < 1e-7 and abs(info["work"] - float(res.work)) < 1e-8
+    names = [ev.GUARD_NAMES[c] for c in ph.decode_history(np.asarray(res.ctx))]
+    assert [name for name, _ in info["events"]] == names
+
+
 def _friction_demand(v, p):
     """``(stance, heel, heel_start, cot_landing)``: the largest ``|T| / N`` of the stance
     foot over one step and of the landing heel in heel pivot, sampled on the SciPy

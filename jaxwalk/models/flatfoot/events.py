@@ -167,7 +167,7 @@ def guard_values(model, t, y, params, phase, ctx):
     # force acts; it stays flat only while that centre of pressure lies between
     # heel and toe, -a_h N <= tau <= a_t N (moment form: no division by N, whose
     # sign the `running` guard checks).
-    tau = forces.stance_ankle_torque(q, params)
+    tau = forces.stance_ankle_torque(q, params, ctx)
     foot_roll = jnp.minimum(a_t * stance[1] - tau, tau + a_h * stance[1])
     extrema = clearance.guards(q, qd, params, phase, ctx, _ground_under)
     return jnp.concatenate(
@@ -296,6 +296,8 @@ def swap_legs(y, params, ctx):
         .at[ph.C["x_heel_2"]].set(0.0)
         .at[ph.C["ground_next"]].set(0.0)
         .at[ph.C["knee_2"]].set(ph.LATCHED)
+        .at[ph.C["shank_1_strike"]].set(q_new[geo.SHANK_1])
+        .at[ph.C["shank_2_strike"]].set(q_new[geo.SHANK_2])
     )  # fmt: skip
     return jnp.concatenate([q_new, qd[perm]]), ctx_new, shift
 

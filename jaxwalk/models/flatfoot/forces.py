@@ -40,11 +40,26 @@ from jaxwalk.models.flatfoot import geometry as geo
 from jaxwalk.models.flatfoot import phases as ph
 
 
+def rest_angles(params, ctx):
+    """``(stance, trailing)``: the shank angles from the foot's perpendicular (rad)
+    at which the ankle springs of foot 1 (flat) and foot 2 (on its toe) are relaxed.
+
+    ``ankle_rest`` plus ``ankle_reset`` times the leg's shank angle at the
+    step's toe-strike (``ctx``): with ``ankle_reset = 1`` both springs start the
+    step relaxed. Both angles are functions of the state at the section, so the
+    section stays ``(psi, psi_dot)``.
+    """
+    reset = params["ankle_reset"]
+    return (params["ankle_rest"] + reset * ctx[ph.C["shank_1_strike"]],
+            params["ankle_rest"] + reset * ctx[ph.C["shank_2_strike"]])
+
+
 def _toe_deflection(ankle_2, shank_2, params, ctx):
     """The trailing ankle's deflection from relaxed while foot 2 pivots on its toe
-    (rad; positive with the shank turned forward of the foot's perpendicular)."""
+    (rad; positive with the shank turned forward of its rest angle on the foot,
+    :func:`rest_angles`)."""
     _, toe_2, _, _ = ph.anchors(params, ctx)
-    return shank_2 - geo.toe_pivot_angle(ankle_2, toe_2)
+    return shank_2 - geo.toe_pivot_angle(ankle_2, toe_2) - rest_angles(params, ctx)[1]
 
 
 def _toe_spring(ankle_2, shank_2, params, ctx):
@@ -92,9 +107,11 @@ def spring_energy(q, params, phase, ctx):
     """Elastic energy of both ankle springs in ``phase`` (scalar).
 
     Leg 1 stands flat all step (``phi = 0``); leg 2 pivots on its toe in push-off
-    and shank release, on its heel in heel pivot, and is relaxed in swing.
+    and shank release, on its heel in heel pivot, and is relaxed in swing. A
+    foot standing on the ground (flat or on its toe) is relaxed at its
+    :func:`rest_angles` (the defaults: the shank perpendicular to the foot).
     """
-    stance = 0.5 * params["k"] * q[geo.SHANK_1] ** 2
+    stance = 0.5 * params["k"] * (q[geo.SHANK_1] - rest_angles(params, ctx)[0]) ** 2
     ankle_2, shank_2 = geo.ankle(q, params, 2), q[geo.SHANK_2]
     trailing = jnp.where(
         ph.ON_TOE[phase],
@@ -174,15 +191,15 @@ def _pivot_reaction(multiplier, ankle_2, shank_2, params, ctx, anchor, spring):
     return multiplier * radial + across
 
 
-def stance_ankle_torque(q, params):
+def stance_ankle_torque(q, params, ctx):
     """Moment about the stance ankle that foot 1's normal force must supply
     (scalar, ``M g L``; forward positive): ``N * cop``.
 
     Moment balance of the flat massless foot: the ankle spring's torque on it,
-    ``k (shank_1 - 0)``, is held by the normal force acting at the centre of
-    pressure, so ``N cop = -k shank_1``.
+    ``k (shank_1 - rest)`` (:func:`rest_angles`), is held by the normal force
+    acting at the centre of pressure, so ``N cop = -k (shank_1 - rest)``.
     """
-    return -params["k"] * q[geo.SHANK_1]
+    return -params["k"] * (q[geo.SHANK_1] - rest_angles(params, ctx)[0])
 
 
 def contact_reactions(q, lam, params, phase, ctx):
@@ -199,7 +216,7 @@ def contact_reactions(q, lam, params, phase, ctx):
         heel of foot 2 ``(2,)`` each, zero when not in contact.
     """
     stance = jnp.stack([lam[ph.ANKLE_1_X], lam[ph.ANKLE_1_Y]])
-    cop = stance_ankle_torque(q, params) / stance[1]
+    cop = stance_ankle_torque(q, params, ctx) / stance[1]
     ankle_2, shank_2 = geo.ankle(q, params, 2), q[geo.SHANK_2]
     _, toe_2, heel_2, _ = ph.anchors(params, ctx)
     toe = _pivot_reaction(lam[ph.TOE_2], ankle_2, shank_2, params, ctx, toe_2, _toe_load)

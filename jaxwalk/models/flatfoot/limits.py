@@ -44,7 +44,7 @@ def limit_use(model, y, params, phase, ctx):
     a_h, a_t = geo.foot_arms(params)
     mu = params["mu"]
     # Moment form, as the foot_roll guard: tau = N * cop.
-    tau = forces.stance_ankle_torque(q, params)
+    tau = forces.stance_ankle_torque(q, params, ctx)
     heel_friction = jnp.where(ph.ON_HEEL[phase], _ratio(jnp.abs(heel[0]), mu * heel[1]), jnp.nan)
     return jnp.stack(
         [

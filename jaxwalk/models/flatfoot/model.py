@@ -34,7 +34,8 @@ from jaxwalk.walker import Walker
 #: "Defaults and the paper's walker"); every preset below is absolute over these keys.
 PAPER_PARAMS = {
     "P": 0.0076, "k_hip": 0.0, "ankle_push": 0.0, "heel_brake": 0.0, "hip_double_support": 1.0,
-    "swing_dorsi": 0.0, "knee_gate": 0.0, "scuff_tol": 0.03, "mu": 1e6,
+    "swing_dorsi": 0.0, "knee_gate": 0.0, "scuff_tol": 0.03, "mu": 1e6, "ankle_rest": 0.0,
+    "ankle_reset": 0.0,
 }  # fmt: skip
 #: Its gait ``(psi, psi_dot)`` (docs/model.md, "Defaults and the paper's walker": the nominal gait).
 PAPER_GAIT = (0.16327572732, -0.186444529299)
@@ -107,6 +108,8 @@ class FlatFootWalker(Walker):
         positive("l_f", 0.22, "1", "foot length, heel to toe"),
         positive("r", 0.4, "1", "foot ratio, (heel to ankle) / (ankle to toe)"),
         nonnegative("k", 0.03, "1", "ankle spring stiffness"),
+        ParamSpec("ankle_rest", 0.0, "rad", "shank angle from the foot's perpendicular at which the ankle spring of a foot on the ground is relaxed (positive: shank leaning back, ankle plantarflexed)", lower=-0.5, upper=0.5),
+        ParamSpec("ankle_reset", 0.0, "1", "fraction of each leg's shank angle at the step's toe-strike added to ankle_rest (1: a standing foot's spring starts every step relaxed, its stored energy lost at toe-strike; 0: the rest angle is ankle_rest)", lower=0.0, upper=1.0),
         ParamSpec("P", 0.045, "1", "hip torque, + on the swing thigh, - on the stance thigh"),
         nonnegative("k_hip", 0.12, "1", "hip spring stiffness between the thighs (M g L per rad), relaxed with the thighs together"),
         nonnegative("ankle_push", 0.09, "1", "push-off torque at the trailing ankle while its foot pivots on its toe (M g L), toe-down on the foot"),
@@ -187,6 +190,7 @@ class FlatFootWalker(Walker):
         q = jnp.stack([hip[0], hip[1], th1, th1 - kappa, th2, th2 - kappa])
         ctx = jnp.zeros(len(self.context), v.dtype).at[ph.C["min_clearance"]].set(ph.NO_MINIMUM)
         ctx = ctx.at[ph.C["x_toe_2"]].set(-2.0 * length * jnp.sin(psi) + a_t)
+        ctx = ctx.at[ph.C["shank_1_strike"]].set(q[geo.SHANK_1]).at[ph.C["shank_2_strike"]].set(q[geo.SHANK_2])
         # Velocity: the push-off constraints hold, and thigh_1 turns at psi_dot.
         sigma = jax.jacfwd(ph.constraints)(q, params, ctx)[jnp.array(_SECTION_ROWS)]
         lhs = jnp.concatenate([sigma, jnp.eye(6, dtype=v.dtype)[geo.THIGH_1][None]], axis=0)

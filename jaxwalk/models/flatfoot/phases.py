@@ -50,7 +50,9 @@ N_CONSTRAINTS = 9
 #: lowest interior minimum of the swing foot's heel or toe height above the
 #: ground since the section (:data:`NO_MINIMUM` if none); ``heel_dir`` and
 #: ``toe_dir`` (+1 rising, -1 falling) tell :mod:`clearance` which extremum
-#: comes next.
+#: comes next. ``shank_1_strike``, ``shank_2_strike`` are the shank angles of
+#: both legs at the step's toe-strike (both feet flat), where the springs of
+#: ``ankle_reset`` are relaxed (:func:`jaxwalk.models.flatfoot.forces.rest_angles`).
 CONTEXT = (
     "x_ankle_1",
     "x_toe_2",
@@ -68,6 +70,8 @@ CONTEXT = (
     "min_clearance",
     "heel_dir",
     "toe_dir",
+    "shank_1_strike",
+    "shank_2_strike",
 )
 C = {name: i for i, name in enumerate(CONTEXT)}
 LATCHED, RELEASED, RELATCHED = 0.0, 1.0, 2.0

@@ -3,7 +3,8 @@
 Part of :mod:`tests.reference.flatfoot` (docs/model.md, "Forces"). A foot on the
 ground has its angle ``phi`` (from the slope, toe-up positive) fixed by its
 contact: 0 flat, ``atan2`` of the toe-to-ankle or heel-to-ankle vector when
-pivoting. Its spring stores ``V = k/2 (shank - phi)^2`` (in heel pivot relaxed at
+pivoting. Its spring stores ``V = k/2 (shank - rest - phi)^2`` (``rest``: ``ankle_rest``
+plus ``ankle_reset`` times the shank's angle at the step's toe-strike; in heel pivot relaxed at
 the landing angle ``shank + swing_dorsi``), and the generalized force is
 ``-dV/dq`` with ``d phi/dq`` written out from ``d atan2(w)/dw = (-w_y, w_x)/|w|^2``.
 The hip torque ``P`` acts ``+P`` on the swing thigh, ``-P`` on the stance thigh;
@@ -49,20 +50,26 @@ def _torque(stretch: float, p: Mapping[str, float], phase: int) -> float:
     return p["k"] * stretch + actuator
 
 
+def _rest(p: Mapping[str, float], ctx: dict, strike: str) -> float:
+    """A standing foot's spring rest angle: ``ankle_rest``, plus ``ankle_reset``
+    times that leg's shank angle at the step's toe-strike (``ctx[strike]``)."""
+    return p["ankle_rest"] + p["ankle_reset"] * ctx[strike]
+
+
 def _pivot(q, p, ctx, phase):
     """``(w, sign, rest)`` of foot 2's pivot in ``phase``: ``phi = atan2(w)`` with
     ``w = sign (ankle_2 - anchor)`` and the spring's rest angle; ``None`` off the ground."""
     anc = anchors(p, ctx)
     a2, _ = kin.ankle(q, p, 2)
     if phase in ON_TOE:
-        return anc["toe_2"] - a2, -1.0, q[SHANK_2]
+        return anc["toe_2"] - a2, -1.0, q[SHANK_2] - _rest(p, ctx, "shank_2_strike")
     if phase == HEEL_PIVOT:
         return a2 - anc["heel_2"], 1.0, q[SHANK_2] + p["swing_dorsi"]
     return None
 
 
 def spring_energy(q: np.ndarray, p: Mapping[str, float], phase: int, ctx: dict) -> float:
-    energy = 0.5 * p["k"] * q[SHANK_1] ** 2 + 0.5 * p["k_hip"] * (q[THIGH_2] - q[THIGH_1]) ** 2
+    energy = 0.5 * p["k"] * (q[SHANK_1] - _rest(p, ctx, "shank_1_strike")) ** 2 + 0.5 * p["k_hip"] * (q[THIGH_2] - q[THIGH_1]) ** 2
     pivot = _pivot(q, p, ctx, phase)
     if pivot is not None:
         w, _, rest = pivot
@@ -73,7 +80,7 @@ def spring_energy(q: np.ndarray, p: Mapping[str, float], phase: int, ctx: dict) 
 def joint_forces(q: np.ndarray, p: Mapping[str, float], phase: int, ctx: dict) -> np.ndarray:
     """``(6,)`` generalized spring forces ``-dV/dq`` plus the hip torque."""
     force = np.zeros(N_Q)
-    force[SHANK_1] -= p["k"] * q[SHANK_1]
+    force[SHANK_1] -= p["k"] * (q[SHANK_1] - _rest(p, ctx, "shank_1_strike"))
     pivot = _pivot(q, p, ctx, phase)
     if pivot is not None:
         w, sign, rest = pivot
@@ -81,7 +88,7 @@ def joint_forces(q: np.ndarray, p: Mapping[str, float], phase: int, ctx: dict) -
         stretch = rest - math.atan2(w[1], w[0])
         dphi = sign * (_angle_gradient(w) @ jac)  # d phi / dq
         drest = np.zeros(N_Q)
-        drest[SHANK_2] = 1.0  # the rest angle turns with the shank (swing_dorsi is constant)
+        drest[SHANK_2] = 1.0  # the rest angle turns with the shank (swing_dorsi, ankle_rest are constant)
         force -= _torque(stretch, p, phase) * (drest - dphi)
     spread = q[THIGH_2] - q[THIGH_1]
     g = _hip_gain(p, phase)

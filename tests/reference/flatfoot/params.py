@@ -22,7 +22,7 @@ PAPER: dict[str, float] = {
     "delay": 0.066, "knee_lock": 0.2,
     "scuff_tol": 0.03, "rho_t": 0.0, "rho_s": 0.0,
     "knee_gate": 0.0, "swing_dorsi": 0.0, "mu": 1e6,
-    "impulse_tol": 0.01, "stance_latch": 1.0,
+    "impulse_tol": 0.01, "stance_latch": 1.0, "ankle_rest": 0.0, "ankle_reset": 0.0,
 }  # fmt: skip
 
 #: Newton's start for :data:`PAPER`: ``FlatFootWalker.initial_guess`` there

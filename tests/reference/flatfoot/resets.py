@@ -21,7 +21,8 @@ from tests.reference.flatfoot.dynamics import impact
 from tests.reference.flatfoot.forces import ON_TOE
 from tests.reference.flatfoot.guards import G, clearance, first_failure, guard_values
 from tests.reference.flatfoot.params import (
-    HEEL_PIVOT, IN_AIR, LATCHED, LOCKED_SWING, N_Q, PUSH_OFF, RELATCHED, RELEASED, SHANK_RELEASE, SWING, foot_arms,
+    HEEL_PIVOT, IN_AIR, LATCHED, LOCKED_SWING, N_Q, PUSH_OFF, RELATCHED, RELEASED, SHANK_1, SHANK_2, SHANK_RELEASE, SWING,
+    foot_arms,
 )  # fmt: skip
 
 #: Below this (M sqrt(gL)) an impulse is numerical zero.
@@ -106,7 +107,8 @@ def swap_legs(y: np.ndarray, p: Mapping[str, float], ctx: dict):
     q_new, qd_new = q[order].copy(), qd[order].copy()
     q_new[:2] -= landing
     ctx_new = dict(ctx, x_ankle_1=0.0, x_toe_2=ctx["x_ankle_1"] + a_t - landing[0], y_toe_2=-landing[1],
-                   x_heel_2=0.0, ground_next=0.0, knee_2=LATCHED)  # fmt: skip
+                   x_heel_2=0.0, ground_next=0.0, knee_2=LATCHED,
+                   shank_1_strike=q_new[SHANK_1], shank_2_strike=q_new[SHANK_2])  # fmt: skip
     return np.concatenate([q_new, qd_new]), ctx_new, float(landing[0])
 
 

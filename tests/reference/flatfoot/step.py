@@ -29,7 +29,7 @@ from tests.reference.flatfoot import guards as gd
 from tests.reference.flatfoot.dynamics import vector_field
 from tests.reference.flatfoot.forces import actuator_work
 from tests.reference.flatfoot.params import (
-    IN_AIR, LATCHED, N_Q, PUSH_OFF, THIGH_1, X_H, Y_H, chord, foot_arms, params as paper_params,
+    IN_AIR, LATCHED, N_Q, PUSH_OFF, SHANK_1, SHANK_2, THIGH_1, X_H, Y_H, chord, foot_arms, params as paper_params,
 )  # fmt: skip
 from tests.reference.flatfoot.resets import on_event, settle
 
@@ -48,7 +48,8 @@ def section_to_state(v, p: Mapping[str, float]):
     hip = np.array([-length * math.sin(psi), length * math.cos(psi)])
     q = np.array([hip[0], hip[1], psi + delta, psi + delta - kappa, -psi + delta, -psi + delta - kappa])
     ctx = {"x_ankle_1": 0.0, "x_toe_2": -2.0 * length * math.sin(psi) + a_t, "y_toe_2": 0.0, "x_heel_2": 0.0,
-           "ground_next": 0.0, "knee_2": LATCHED, "events": [], "min_clearance": math.inf}  # fmt: skip
+           "ground_next": 0.0, "knee_2": LATCHED, "events": [], "min_clearance": math.inf,
+           "shank_1_strike": q[SHANK_1], "shank_2_strike": q[SHANK_2]}  # fmt: skip
     # Velocity: ankle 1 pinned, both knees locked, ankle 2 on its toe circle, and thigh_1 turning at psi_dot.
     _, sigma, _ = con.constraint_terms(q, np.zeros(N_Q), p, ctx)
     rows = [con.ANKLE_1_X, con.ANKLE_1_Y, con.KNEE_1, con.KNEE_2, con.TOE_2]
