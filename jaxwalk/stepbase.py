@@ -59,10 +59,12 @@ class SolverOptions:
             closer to the error bound is rejected more often, most where the
             steps shrink as a phase nears its event; 0.75 takes 1-9 % fewer
             steps on every walker's step maps (9 % on the flat-foot walker's),
-            with gaits as close to rtol 1e-12 as at 0.9 or closer (the
-            simplest walker's ``lambda_max`` is off by 1e-7..4e-6 at either);
-            no PI setting tried takes fewer (benchmarks/bench_controller.py,
-            benchmarks/README.md).
+            its compass, kneed and flat-foot gaits closer to rtol 1e-12 than
+            at 0.9; the simplest walker's ``lambda_max`` error is noise that
+            reached 2.9e-6 at 0.75 and 8.9e-7 at 0.9 on the slopes measured.
+            No PI setting tried takes fewer steps. Not settable from a
+            config's ``[analysis]``; datasets made before 2026-12-05 were
+            made at 0.9 (benchmarks/bench_controller.py, benchmarks/README.md).
     """
 
     rtol: float = 1e-10

@@ -113,6 +113,12 @@ def test_ankle_rest_angles_step_matches_the_independent_scipy_walker(changes):
     assert abs(info["time"] - float(res.time)) < 1e-7 and abs(info["work"] - float(res.work)) < 1e-8
     names = [ev.GUARD_NAMES[c] for c in ph.decode_history(np.asarray(res.ctx))]
     assert [name for name, _ in info["events"]] == names
+    # The rest angles the step hands on (swap_legs) are those the next step's
+    # section point gives (section_to_state): the same walk whether or not it
+    # passes through the section.
+    _, _, ctx_next = MODEL.section_to_state(v1, p)
+    for name in ("shank_1_strike", "shank_2_strike"):
+        assert abs(float(res.ctx[ph.C[name]]) - float(ctx_next[ph.C[name]])) < 1e-9, name
 
 
 def _friction_demand(v, p):

@@ -494,7 +494,7 @@ def test_a_few_outliers_do_not_take_the_whole_linear_colour_scale():
     norm = fig.axes[0].collections[0].norm
     (bar,) = [a for a in fig.axes if a.get_label() == "<colorbar>"]
     assert 20.0 < norm.vmax < 30.0 and norm.vmin == pytest.approx(14.0)
-    assert bar._colorbar.extend == "max" and "1 above, up to 230" in bar.get_ylabel()
+    assert fig.axes[0].collections[0].colorbar.extend == "max" and "1 above, up to 230" in bar.get_ylabel()
 
     # No outlier: the scale spans every value, and no arrow.
     assert linear_limits(bulk.values.ravel()) == (pytest.approx(14.0), pytest.approx(25.0), "neither")
@@ -502,3 +502,6 @@ def test_a_few_outliers_do_not_take_the_whole_linear_colour_scale():
     both = np.concatenate([np.linspace(0.0, 1.0, 200), [-50.0, 60.0]])
     low, high, extend = linear_limits(both)
     assert extend == "both" and -1.0 < low < 0.1 and 0.9 < high < 2.0
+    # A nearly constant variable has no central range to keep: never clipped.
+    assert linear_limits(np.array([5.0] * 12 + [4.0])) == (4.0, 5.0, "neither")
+    assert linear_limits(np.array([0.0, 1.0, 10.0])) == (0.0, 10.0, "neither")

@@ -140,8 +140,11 @@ def linear_limits(values: np.ndarray) -> tuple[float, float, str]:
     # interpolated percentile lies between the outlier and the next value.
     p_low = float(np.percentile(values, OUTLIER_PERCENT, method="higher"))
     p_high = float(np.percentile(values, 100.0 - OUTLIER_PERCENT, method="lower"))
-    clip_high = high - p_high > p_high - p_low
-    clip_low = p_low - low > p_high - p_low
+    central = p_high - p_low
+    # A stepped or nearly constant variable (h_max, Newton iterations) has no
+    # central range to keep: clipping there would leave one colour.
+    clip_high = central > 0.0 and high - p_high > central
+    clip_low = central > 0.0 and p_low - low > central
     extend = {(False, False): "neither", (True, False): "min", (False, True): "max", (True, True): "both"}
     return (p_low if clip_low else low), (p_high if clip_high else high), extend[clip_low, clip_high]
 

@@ -22,7 +22,8 @@ The swing knee has an extension stop at flexion ``knee_lock`` and a latch
   closed again: ``SHANK_RELEASING``.
 * ``toe_strike`` (leg 2's ankle reaches the ground: the foot is flat): inelastic
   impact onto ankle 2 pinned with leg 1 on its toe; legs swap, the frame moves
-  to the new stance ankle, and the step ends.
+  to the new stance ankle, both shank angles are recorded (the springs' rest
+  angles of ``ankle_reset``), and the step ends.
 
 * ``slip`` / ``knee_buckle`` (a ground force leaves its friction cone; a knee
   on its stop alone, ``stance_latch = 0``, would have to pull): ``SLIPPING``,

@@ -2,11 +2,13 @@
 
 Ankle springs are written as a potential of ``q``: a foot touching the ground has
 its angle ``phi(q)`` fixed by contact (0 when flat, by the ankle's position when it
-pivots on its heel or toe), so ``V = k/2 (shank - phi(q))^2`` and the generalized
-spring force ``-dV/dq`` carries both the torque on the shank and the force the
-massless foot passes to the ankle. A foot in the air sits at its relaxed angle
-(``phi = shank``, turned toe-up by ``swing_dorsi``) and stores nothing; in heel
-pivot the spring is relaxed at that landing angle.
+pivots on its heel or toe), so ``V = k/2 (shank - phi(q) - rest)^2`` and the
+generalized spring force ``-dV/dq`` carries both the torque on the shank and the
+force the massless foot passes to the ankle. A standing foot's ``rest`` is
+:func:`rest_angles`' (0 at the defaults: the shank perpendicular to the foot). A
+foot in the air sits at its relaxed angle (``phi = shank``, turned toe-up by
+``swing_dorsi``) and stores nothing; in heel pivot the spring is relaxed at that
+landing angle.
 
 The hip torque is a constant ``P`` between the thighs, ``+P`` on the swing thigh and
 ``-P`` on the stance thigh: the generalized force of the potential
@@ -45,9 +47,12 @@ def rest_angles(params, ctx):
     at which the ankle springs of foot 1 (flat) and foot 2 (on its toe) are relaxed.
 
     ``ankle_rest`` plus ``ankle_reset`` times the leg's shank angle at the
-    step's toe-strike (``ctx``): with ``ankle_reset = 1`` both springs start the
-    step relaxed. Both angles are functions of the state at the section, so the
-    section stays ``(psi, psi_dot)``.
+    step's toe-strike (``ctx``): with ``ankle_reset = 1`` and ``ankle_rest = 0``
+    both springs start the step relaxed. Both angles are functions of the state
+    at the section, so the section stays ``(psi, psi_dot)``. Moving a rest angle
+    at toe-strike changes the energy the spring holds there: with
+    ``ankle_reset = 1`` the trailing leg's spring lets go of what it stored in
+    stance, energy a push-off would have used.
     """
     reset = params["ankle_reset"]
     return (params["ankle_rest"] + reset * ctx[ph.C["shank_1_strike"]],
@@ -56,8 +61,8 @@ def rest_angles(params, ctx):
 
 def _toe_deflection(ankle_2, shank_2, params, ctx):
     """The trailing ankle's deflection from relaxed while foot 2 pivots on its toe
-    (rad; positive with the shank turned forward of its rest angle on the foot,
-    :func:`rest_angles`)."""
+    (rad; positive with the shank turned back, ankle ahead of knee, from its
+    rest angle on the foot, :func:`rest_angles`)."""
     _, toe_2, _, _ = ph.anchors(params, ctx)
     return shank_2 - geo.toe_pivot_angle(ankle_2, toe_2) - rest_angles(params, ctx)[1]
 
