@@ -213,7 +213,7 @@ def _close_phase(model: Walker, params, opts: SolverOptions, c: _Carry, go_on: _
 def _advance(model: Walker, params, opts: SolverOptions, c: _Carry) -> _Carry:
     """The loop body: one integrator step for the lane, and its phase's end if it came."""
     solver = _solver(opts)
-    controller = opts.make_controller()
+    controller = opts.make_controller(model)
     t_limit = c.t_start + opts.phase_time_limit * model.time_scale(params)
     a = _attempt(model, params, opts, solver, controller, c, t_limit)
 

@@ -73,7 +73,7 @@ def solve_phase(model: Walker, params, y, phase, ctx, t0, g0: Float[Array, "n_gu
         y0=y,
         args=(params, phase, ctx),
         event=event,
-        stepsize_controller=opts.make_controller(),
+        stepsize_controller=opts.make_controller(model),
         max_steps=opts.max_solver_steps,
         adjoint=diffrax.ForwardMode(),
         throw=False,

@@ -55,16 +55,18 @@ class SolverOptions:
         pcoeff, icoeff, safety: the step-size controller's proportional and
             integral coefficients and its safety factor (diffrax's
             ``PIDController``; ``pcoeff = 0, icoeff = 1`` is the plain integral
-            controller). ``safety = 0.75``, not diffrax's 0.9: a step proposed
-            closer to the error bound is rejected more often, most where the
-            steps shrink as a phase nears its event; 0.75 takes 1-9 % fewer
-            steps on every walker's step maps (9 % on the flat-foot walker's),
-            its compass, kneed and flat-foot gaits closer to rtol 1e-12 than
-            at 0.9; the simplest walker's ``lambda_max`` error is noise that
-            reached 2.9e-6 at 0.75 and 8.9e-7 at 0.9 on the slopes measured.
-            No PI setting tried takes fewer steps. Not settable from a
-            config's ``[analysis]``; datasets made before 2026-12-05 were
-            made at 0.9 (benchmarks/bench_controller.py, benchmarks/README.md).
+            controller). ``safety = None`` (default): the walker's own,
+            :attr:`jaxwalk.walker.Walker.step_safety`, diffrax's 0.9 but for
+            the flat-foot walker's 0.75, where 0.9 had a quarter of the steps
+            rejected (each phase's steps shrink toward its event and the
+            controller proposes them a little too long): 0.75 takes 9.5 %
+            fewer solver steps in its gait search, with gaits closer to rtol
+            1e-12 and every status of the shoe walker's 64 x 64 map kept. On
+            the simplest walker 0.75 saves 2 % and makes its ``lambda_max``
+            noise reach 2.9e-6 (8.9e-7 at 0.9), so the passive walkers keep
+            0.9. No PI setting tried takes fewer steps. Not settable from a
+            config's ``[analysis]`` (benchmarks/bench_controller.py,
+            benchmarks/README.md).
     """
 
     rtol: float = 1e-10
@@ -79,7 +81,7 @@ class SolverOptions:
     event_iterations: int = 8
     pcoeff: float = 0.0
     icoeff: float = 1.0
-    safety: float = 0.75
+    safety: float | None = None
 
     def __post_init__(self):
         # run_step's loop is bounded by max_events (its condition); a step has at least one event.
@@ -94,10 +96,11 @@ class SolverOptions:
         """The diffrax solver: :attr:`solver` itself, or a new one of the class it names."""
         return SOLVERS[self.solver]() if isinstance(self.solver, str) else self.solver
 
-    def make_controller(self) -> diffrax.PIDController:
-        """The step-size controller of every phase's solve, in both engines."""
+    def make_controller(self, model) -> diffrax.PIDController:
+        """The step-size controller of every phase's solve of ``model``, in both engines."""
+        safety = model.step_safety if self.safety is None else self.safety
         return diffrax.PIDController(rtol=self.rtol, atol=self.atol, pcoeff=self.pcoeff, icoeff=self.icoeff,
-                                     safety=self.safety)
+                                     safety=safety)
 
     def as_record(self) -> dict:
         """The settings as plain data for a dataset's attributes: every field, the

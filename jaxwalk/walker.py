@@ -107,6 +107,8 @@ class Walker:
             (the step-down capability), or ``None``.
         lockstep_batch: configurations one worker thread runs together in a grid analysis.
         basin_radius, basin_scale: the basin measure's ball of starts by default.
+        step_safety: the step-size controller's safety factor where the solver
+            settings name none (:class:`jaxwalk.stepbase.SolverOptions`).
 
     Models are compared and hashed by value, their class and instance
     attributes (which must be hashable): every jitted program closes over its
@@ -149,6 +151,10 @@ class Walker:
     #: outside typical basins (measured per model, docs/global_stability.md).
     basin_radius: float = 0.01
     basin_scale: tuple[float, ...] | None = None
+    #: The step-size controller's safety factor where ``SolverOptions.safety``
+    #: is ``None`` (the default): diffrax's 0.9, measured per model
+    #: (benchmarks/bench_controller.py; 0.75 for the flat-foot walker).
+    step_safety: float = 0.9
 
     def _identity(self) -> tuple:
         return type(self), tuple(sorted(vars(self).items()))

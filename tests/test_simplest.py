@@ -153,17 +153,20 @@ def test_matches_independent_scipy_implementation(gamma):
 
 
 def test_the_step_size_controller_settings_reach_the_solve():
-    """``SolverOptions.safety`` (and the PI coefficients) are the controller's:
-    the same step from Garcia's gait at diffrax's safety 0.9 and at the default
-    takes a different number of solver steps and lands on the same state."""
+    """``SolverOptions.safety`` (and the PI coefficients) are the controller's,
+    the walker's own where it names none: the same step from Garcia's gait at
+    the simplest walker's 0.9 and at 0.75 takes a different number of solver
+    steps and lands on the same state."""
     default = SolverOptions()
-    controller = SolverOptions(safety=0.6, pcoeff=0.1, icoeff=0.5).make_controller()
+    controller = SolverOptions(safety=0.6, pcoeff=0.1, icoeff=0.5).make_controller(MODEL)
     assert (controller.safety, controller.pcoeff, controller.icoeff) == (0.6, 0.1, 0.5)
-    assert (default.safety, default.pcoeff, default.icoeff) == (0.75, 0.0, 1.0)
+    assert (default.safety, default.pcoeff, default.icoeff) == (None, 0.0, 1.0)
+    assert default.make_controller(MODEL).safety == 0.9 == MODEL.step_safety
+    assert default.make_controller(get_model("flatfoot")).safety == 0.75
     params = {"gamma": jnp.asarray(GARCIA_GAMMA, jnp.float64)}
     v = jnp.array([GARCIA_THETA, GARCIA_THETA_DOT, GARCIA_THETA_DOT * np.cos(2 * GARCIA_THETA)])
     steps = {}
-    for safety in (0.9, default.safety):
+    for safety in (None, 0.75):
         v_next, res = jax.jit(lambda v_: step_map(MODEL, v_, params, SolverOptions(safety=safety)))(v)
         assert int(res.status) == 0
         steps[safety] = (int(res.ode_steps), np.asarray(v_next))
