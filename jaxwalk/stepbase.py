@@ -91,6 +91,10 @@ class SolverOptions:
             raise ValueError(f"SolverOptions.solver must be one of {', '.join(SOLVERS)} or a diffrax solver, got {self.solver!r}")
         if not isinstance(self.solver, (str, diffrax.AbstractSolver)):
             raise TypeError(f"SolverOptions.solver must be a name or a diffrax solver, got {type(self.solver).__name__}")
+        if self.safety is not None and not 0.0 < self.safety <= 1.0:
+            raise ValueError(f"SolverOptions.safety must be in (0, 1] or None, got {self.safety!r}")
+        if self.pcoeff < 0.0 or self.icoeff <= 0.0:
+            raise ValueError(f"SolverOptions.pcoeff must be >= 0 and icoeff > 0, got {self.pcoeff!r}, {self.icoeff!r}")
 
     def make_solver(self) -> diffrax.AbstractSolver:
         """The diffrax solver: :attr:`solver` itself, or a new one of the class it names."""
@@ -102,11 +106,15 @@ class SolverOptions:
         return diffrax.PIDController(rtol=self.rtol, atol=self.atol, pcoeff=self.pcoeff, icoeff=self.icoeff,
                                      safety=safety)
 
-    def as_record(self) -> dict:
+    def as_record(self, model=None) -> dict:
         """The settings as plain data for a dataset's attributes: every field, the
         solver by its name (an object by its ``repr``, e.g. ``"Tsit5()"``, where
-        ``dataclasses.asdict`` would keep only its fields and lose its class)."""
+        ``dataclasses.asdict`` would keep only its fields and lose its class),
+        and with ``model`` the safety factor its solves used (``safety = None``
+        resolved to :attr:`~jaxwalk.walker.Walker.step_safety`)."""
         record = dataclasses.asdict(self)
+        if model is not None and self.safety is None:
+            record["safety"] = model.step_safety
         record["solver"] = self.solver if isinstance(self.solver, str) else repr(self.solver)
         return record
 

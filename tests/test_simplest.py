@@ -163,6 +163,11 @@ def test_the_step_size_controller_settings_reach_the_solve():
     assert (default.safety, default.pcoeff, default.icoeff) == (None, 0.0, 1.0)
     assert default.make_controller(MODEL).safety == 0.9 == MODEL.step_safety
     assert default.make_controller(get_model("flatfoot")).safety == 0.75
+    # A dataset records the safety the walker's solves used, not None.
+    assert default.as_record(MODEL)["safety"] == 0.9 and default.as_record()["safety"] is None
+    for bad in ({"safety": 0.0}, {"safety": 1.5}, {"icoeff": 0.0}, {"pcoeff": -0.1}):
+        with pytest.raises(ValueError):
+            SolverOptions(**bad)
     params = {"gamma": jnp.asarray(GARCIA_GAMMA, jnp.float64)}
     v = jnp.array([GARCIA_THETA, GARCIA_THETA_DOT, GARCIA_THETA_DOT * np.cos(2 * GARCIA_THETA)])
     steps = {}

@@ -147,7 +147,7 @@ def _prepare(config, out_dir, *, max_points: int, overwrite: bool, chunk_size: i
 def _plan_store(config, model, target, options, *, command: str = "", overwrite: bool = False):
     from jaxwalk.sweep.store import ChunkStore
 
-    return ChunkStore.plan(config, model, target, chunk_size=options.chunk_size, options=_as_attribute(options),
+    return ChunkStore.plan(config, model, target, chunk_size=options.chunk_size, options=_as_attribute(options, model),
                            command=command, overwrite=overwrite)
 
 
@@ -271,15 +271,16 @@ def analysis_options(config: SweepConfig):
     return dataclasses.replace(base, solver=solver, newton=newton, **fields, more=tuple(more))
 
 
-def _as_attribute(options) -> dict:
+def _as_attribute(options, model) -> dict:
     """The options as recorded in a dataset (and in a partial run's fingerprint):
-    every field, the analyses of ``more`` under their names, and only when on
-    (so adding an analysis changes no earlier sweep's record)."""
+    every field (the controller's safety as ``model`` resolves it), the analyses
+    of ``more`` under their names, and only when on (so adding an analysis
+    changes no earlier sweep's record)."""
     if not dataclasses.is_dataclass(options):
         return dict(options)
     record = dataclasses.asdict(options)
     if hasattr(options, "solver"):  # a solver object by name, not by its fields
-        record["solver"] = options.solver.as_record()
+        record["solver"] = options.solver.as_record(model)
     record.update(dict(record.pop("more", ())))
     return record
 
