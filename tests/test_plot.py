@@ -483,18 +483,25 @@ def test_figure_titles_wrap_between_words_and_outside_math():
 def test_a_few_outliers_do_not_take_the_whole_linear_colour_scale():
     """The shoe walker's gait sensitivity norm is 14.8-24.2 at 90 % of its gaits
     and up to 232 next to a flip: the scale ends at the 99th percentile, the cells beyond
-    take the end colour, and the bar's arrow and label say how many and how far."""
+    take the end colour under a marker, and the bar's arrow and label say how many and how far."""
     from jaxwalk.plot.heatmap import linear_limits
 
     ds = synthetic(GRID_2D)  # 60 gaits
     lam = ds["lambda_max"]
     bulk = 14.0 + 11.0 * (lam - lam.min()) / (lam.max() - lam.min())
     ds["norm"] = bulk.where(lam < lam.max(), 230.0).assign_attrs(long_name="norm", units="1")
+    # An infinite norm (an unstable gait's) is drawn blank: no value, so not beyond the scale either.
+    ds["norm"] = ds["norm"].where(lam > lam.min(), np.inf)
     fig = heatmap_figure(ds, "norm", choose_layout(ds, "heatmap"))
     norm = fig.axes[0].collections[0].norm
     (bar,) = [a for a in fig.axes if a.get_label() == "<colorbar>"]
-    assert 20.0 < norm.vmax < 30.0 and norm.vmin == pytest.approx(14.0)
+    assert 20.0 < norm.vmax < 30.0 and 14.0 < norm.vmin < 14.2  # the least finite value
     assert fig.axes[0].collections[0].colorbar.extend == "max" and "1 above, up to 230" in bar.get_ylabel()
+    # The clipped cell shares the end colour, so a marker and a legend entry tell it apart.
+    (marks,) = [c for c in fig.axes[0].collections if c.get_gid() == "beyond-scale-above"]
+    assert len(marks.get_offsets()) == 1
+    assert not [c for c in fig.axes[0].collections if c.get_gid() == "beyond-scale-below"]
+    assert "above the colour scale (1 point)" in [t.get_text() for t in fig.legends[0].get_texts()]
 
     # No outlier: the scale spans every value, and no arrow.
     assert linear_limits(bulk.values.ravel()) == (pytest.approx(14.0), pytest.approx(25.0), "neither")

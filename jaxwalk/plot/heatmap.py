@@ -95,8 +95,11 @@ def heatmap_figure(ds: xr.Dataset, name: str, layout: Layout):
     drew_contour = drew_unstable = drew_unlocated = False
     kinds: set[str] = set()
     mesh = None
+    beyond = {"above": 0, "below": 0}
     for ax, (index, view) in zip(axes, views):
         mesh, c, u = _panel(ax, view, name, layout, norm, counts)
+        _mark_beyond(ax, view, name, layout, low if extend in ("min", "both") else -np.inf,
+                     high if extend in ("max", "both") else np.inf, beyond)
         drew_contour |= c
         drew_unstable |= u
         k, unlocated = loci.draw(ax, ds, view, layout.x, layout.y)
@@ -116,6 +119,7 @@ def heatmap_figure(ds: xr.Dataset, name: str, layout: Layout):
             bar.set_ticks(_two_slope_ticks(norm.vmin, norm.vmax))
     fig.suptitle(figure_title(ds, name, layout.fixed), fontsize="medium")
     handles = _legend_handles(ds, counts, drew_contour, drew_unstable) + loci.legend_handles(kinds, drew_unlocated)
+    handles += [_beyond_handle(side, n) for side, n in beyond.items() if n]
     if not finite.size:
         handles.insert(0, _patch("white", "no gait found anywhere on this view", edge="none"))
     if handles:
@@ -157,6 +161,32 @@ def _beyond_text(values: np.ndarray, low: float, high: float, extend: str) -> st
     if extend in ("min", "both"):
         notes.append(f"{int((values < low).sum())} below, down to {values.min():.4g}")
     return "\n(scale clipped at the outliers: " + "; ".join(notes) + ")" if notes else ""
+
+
+#: Markers on the cells whose value lies beyond a clipped colour scale: those
+#: cells take the scale's end colour, which alone would not tell them apart.
+BEYOND_MARKERS = {"above": "^", "below": "v"}
+
+
+def _mark_beyond(ax, view: xr.Dataset, name: str, layout: Layout, low: float, high: float, beyond: dict[str, int]) -> None:
+    """Mark the gaits whose ``name`` lies above ``high`` or below ``low`` (the clipped
+    scale's ends; infinite where that end is not clipped); add their counts to ``beyond``."""
+    ok = view["status"].transpose(layout.y, layout.x).values == Status.OK
+    values = np.where(ok, view[name].transpose(layout.y, layout.x).values, np.nan)
+    values[~np.isfinite(values)] = np.nan  # an infinite value is drawn blank, not at the scale's end
+    xx, yy = np.meshgrid(view[layout.x].values, view[layout.y].values)
+    for side, cells in (("above", values > high), ("below", values < low)):
+        if cells.any():
+            ax.scatter(xx[cells], yy[cells], marker=BEYOND_MARKERS[side], s=16, facecolors="white",
+                       edgecolors="k", linewidths=0.5, zorder=3, gid=f"beyond-scale-{side}")
+            beyond[side] += int(cells.sum())
+
+
+def _beyond_handle(side: str, count: int):
+    from matplotlib.lines import Line2D
+
+    return Line2D([], [], marker=BEYOND_MARKERS[side], linestyle="none", markerfacecolor="white", markeredgecolor="k",
+                  label=f"{side} the colour scale ({count} point{'s' if count != 1 else ''})")
 
 
 def _two_slope_ticks(vmin: float, vmax: float) -> list[float]:
