@@ -205,8 +205,8 @@ def _close_phase(model: Walker, params, opts: SolverOptions, c: _Carry, go_on: _
         n_events=end.n_events,
         guard=jnp.where(end.event_happened, end.guard, -1),
         # Work over the phase, from its start to the event (before the reset,
-        # which may relabel the legs); impacts do not move the joints.
-        work=c.work + model.actuator_work(c.y_start, end.y_event, params, c.phase, c.ctx),
+        # which may relabel the legs; impacts do not move the joints), and the reset's own.
+        work=c.work + model.actuator_work(c.y_start, end.y_event, params, c.phase, c.ctx) + end.work,
     )
 
 

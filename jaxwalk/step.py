@@ -189,8 +189,8 @@ def run_step(model: Walker, params: Params, y0: Float[Array, "2*n_q"], phase0: I
         solved, ode_steps = _solve_unless_ended(model, params, c.y, c.phase, c.ctx, c.t, g0, opts)
         end = end_phase(model, params, c.t, c.y, c.phase, c.ctx, g0, solved, c.n_events, opts)
         # Work over the phase, from its start to the event (before the reset,
-        # which may relabel the legs); impacts do not move the joints.
-        work = c.work + model.actuator_work(c.y, end.y_event, params, c.phase, c.ctx)
+        # which may relabel the legs; impacts do not move the joints), and the reset's own.
+        work = c.work + model.actuator_work(c.y, end.y_event, params, c.phase, c.ctx) + end.work
         return _PhaseLoop(end.t_event, end.y_next, end.phase_next, end.ctx_next, c.length + end.shift, end.status,
                           end.n_events, work, c.ode_steps + ode_steps, jnp.where(end.event_happened, end.guard, -1))
 

@@ -138,7 +138,8 @@ class StepResult(NamedTuple):
         n_events: number of events in the step.
         work: work done by the walker's actuators over the step (model energy
             units; 0 for passive walkers), summed phase by phase with
-            :meth:`~jaxwalk.walker.Walker.actuator_work`.
+            :meth:`~jaxwalk.walker.Walker.actuator_work`, plus the resets' own
+            (:attr:`~jaxwalk.walker.Transition.work`).
         ode_steps: ODE solver steps, accepted and rejected, summed over the
             step's phases (what the step cost; :class:`jaxwalk.gait.GaitStats`).
         guard: int32 index in :attr:`~jaxwalk.walker.Walker.guards` of the guard
@@ -171,6 +172,7 @@ class PhaseEnd(NamedTuple):
         y_next, phase_next, ctx_next: the state after the reset; the state at the
             event where there was no event or the reset is not finite.
         shift: distance the stance foot moved in the reset (0 without one).
+        work: actuator work done in the reset (:attr:`~jaxwalk.walker.Transition.work`; 0 without one).
         step_done: bool, the reset ended the step.
         status: int8 :class:`~jaxwalk.status.Status` after the event
             (``IN_PROGRESS`` while the step goes on).
@@ -185,6 +187,7 @@ class PhaseEnd(NamedTuple):
     phase_next: Int32[Array, ""]
     ctx_next: Float[Array, "n_ctx"]
     shift: Float[Array, ""]
+    work: Float[Array, ""]
     step_done: Bool[Array, ""]
     status: Int8[Array, ""]
     n_events: Int32[Array, ""]
@@ -256,6 +259,7 @@ def close_phase(
         phase_next=jnp.where(keep & ~failed, tr.phase, phase).astype(jnp.int32),
         ctx_next=jnp.where(keep, tr.ctx, ctx),
         shift=jnp.where(keep, tr.shift, 0.0),
+        work=jnp.where(keep, tr.work, 0.0),
         step_done=tr.step_done & keep,
         status=new_status.astype(jnp.int8),
         n_events=n_events,

@@ -78,6 +78,10 @@ class Transition(NamedTuple):
     status: Int8[Array, ""]  # Status; IN_PROGRESS while the step goes on
     step_done: Bool[Array, ""]  # True when this event ends the step (legs swapped)
     shift: Float[Array, ""]  # x translation of the frame at this event: the step length when step_done, else 0
+    # Work done by an actuator in the reset itself (model energy units), added to
+    # StepResult.work; 0 unless the reset winds up stored energy (the flat-foot
+    # walker's ankle springs at toe-strike, forces.reset_work).
+    work: Float[ArrayLike, ""] = 0.0
 
 
 class Walker:

@@ -94,13 +94,15 @@ def test_documented_step_matches_the_independent_scipy_walker(documented):
         assert abs(times[name] - float(res.ctx[ph.C["t_" + name]])) < 1e-7, name
 
 
-@pytest.mark.parametrize("changes", [{"ankle_rest": 0.1, "k": 0.05}, {"ankle_reset": 1.0, "k": 0.1}],
-                         ids=["ankle_rest", "ankle_reset"])
+@pytest.mark.parametrize("changes", [{"ankle_rest": 0.1, "k": 0.05}, {"ankle_reset": 1.0, "k": 0.1},
+                                     {"ankle_reset": 1.0, "ankle_rest": 0.3, "k": 0.05}],
+                         ids=["ankle_rest", "ankle_reset", "reset_work"])
 def test_ankle_rest_angles_step_matches_the_independent_scipy_walker(changes):
     """The ankle springs' rest angles written again in the SciPy reference: the
     same step from the shoe gait, at a stiffer ankle, with the standing feet's
-    springs relaxed 0.1 rad plantarflexed (``ankle_rest``) or at the shank
-    angles of the step's toe-strike (``ankle_reset``), in both walkers."""
+    springs relaxed 0.1 rad plantarflexed (``ankle_rest``), at the shank
+    angles of the step's toe-strike (``ankle_reset``), or 0.3 rad from them, which
+    winds the landing spring up at toe-strike: the same work, that included."""
     from tests.reference import flatfoot as ref
 
     p, v, _, _, _ = _gait("shoe")
@@ -111,6 +113,7 @@ def test_ankle_rest_angles_step_matches_the_independent_scipy_walker(changes):
     assert info["status"] == "ok"
     np.testing.assert_allclose(v1_ref, np.asarray(v1), rtol=0.0, atol=1e-8)
     assert abs(info["time"] - float(res.time)) < 1e-7 and abs(info["work"] - float(res.work)) < 1e-8
+    assert (info["reset_work"] > 1e-4) == ("ankle_rest" in changes and "ankle_reset" in changes), info["reset_work"]
     names = [ev.GUARD_NAMES[c] for c in ph.decode_history(np.asarray(res.ctx))]
     assert [name for name, _ in info["events"]] == names
     # The rest angles the step hands on (swap_legs) are those the next step's
@@ -119,6 +122,23 @@ def test_ankle_rest_angles_step_matches_the_independent_scipy_walker(changes):
     _, _, ctx_next = MODEL.section_to_state(v1, p)
     for name in ("shank_1_strike", "shank_2_strike"):
         assert abs(float(res.ctx[ph.C[name]]) - float(ctx_next[ph.C[name]])) < 1e-9, name
+
+
+def test_the_stance_foot_rolls_at_the_same_instant_in_the_independent_scipy_walker():
+    """The flat stance foot's centre-of-pressure limit (``foot_roll``) written again
+    in the SciPy reference (moment balance of the massless foot about its ankle,
+    with the spring's rest angle): from the shoe gait with a stiff ankle whose
+    springs start 0.2 rad from relaxed, the stance foot's centre of pressure
+    reaches its toe in heel pivot, in both walkers, at the same time."""
+    from tests.reference import flatfoot as ref
+
+    p, v, _, _, _ = _gait("shoe")
+    p = with_params(p, ankle_reset=1.0, ankle_rest=0.2, k=0.1)
+    _, res = step_fn(v, p)
+    _, info = ref.step_map(np.asarray(v), {k: float(x) for k, x in p.items()})
+    assert int(res.status) == Status.FOOT_ROLLING and info["status"] == "foot_rolling"
+    assert int(res.phase) == ph.HEEL_PIVOT == info["phase"]
+    assert abs(info["time"] - float(res.time)) < 1e-7, (info["time"], float(res.time))
 
 
 def _friction_demand(v, p):

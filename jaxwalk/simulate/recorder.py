@@ -277,6 +277,7 @@ def _record_event(observe, params, out, st: _Walk, k: int, samples: _Samples) ->
     lam2, limits2, energy2, power2 = observe(params, both_y, jnp.stack([st.phase, out.phase_next]), jnp.stack([st.ctx, out.ctx_next]))
     samples.add(b, k, int(st.phase), BEFORE_EVENT, guard, both_y[:1], st.ctx, st.origin, (lam2[:1], limits2[:1]), energy2[:1], power2[:1], st.work)
     if step_code in (int(Status.IN_PROGRESS), int(Status.OK)):
+        st.work += float(out.work)  # the reset's own (walker.Transition.work): after it, not before
         next_step = k + 1 if bool(out.step_done) else k
         if bool(out.step_done):
             # Same hip, new frame: the frame moved by the hip's change of coordinates.

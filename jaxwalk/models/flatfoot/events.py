@@ -393,4 +393,5 @@ def on_event(model, guard, t, y, params, phase, ctx):
         status=status,
         step_done=done & ok,
         shift=jnp.where(done & ok, shift, 0.0),
+        work=jnp.where(done & ok, forces.reset_work(q, ctx_new, y_swap[:6], ctx_swap, params), 0.0),
     )

@@ -108,8 +108,8 @@ def _heel_load(ankle_2, shank_2, params, ctx):
     return _heel_spring(ankle_2, shank_2, params, ctx) + _heel_brake(ankle_2, shank_2, params, ctx)
 
 
-def spring_energy(q, params, phase, ctx):
-    """Elastic energy of both ankle springs in ``phase`` (scalar).
+def ankle_spring_energies(q, params, phase, ctx):
+    """``(stance, trailing)``: elastic energy of foot 1's and foot 2's ankle springs in ``phase``.
 
     Leg 1 stands flat all step (``phi = 0``); leg 2 pivots on its toe in push-off
     and shank release, on its heel in heel pivot, and is relaxed in swing. A
@@ -123,7 +123,37 @@ def spring_energy(q, params, phase, ctx):
         _toe_spring(ankle_2, shank_2, params, ctx),
         jnp.where(ph.ON_HEEL[phase], _heel_spring(ankle_2, shank_2, params, ctx), 0.0),
     )
+    return stance, trailing
+
+
+def spring_energy(q, params, phase, ctx):
+    """Elastic energy of both ankle springs and the hip spring in ``phase`` (scalar)."""
+    stance, trailing = ankle_spring_energies(q, params, phase, ctx)
     return stance + trailing + hip_spring_energy(q, params)
+
+
+def reset_work(q_before, ctx_before, q_after, ctx_after, params):
+    """Work (>= 0, ``M g L``) an actuator must do on the ankle springs at toe-strike.
+
+    At toe-strike each ankle spring changes its role at a fixed configuration:
+    the landing foot's, relaxed at its landing angle in heel pivot, becomes the
+    stance spring relaxed at its rest angle, and the stance foot's becomes the
+    trailing toe's, whose rest angle moves with ``ankle_reset``
+    (:func:`rest_angles`). A spring whose energy falls there lets it go (lost,
+    as an impact's loss is); one whose energy rises was wound up by something,
+    and that work is counted here as an actuator's, not hidden in the event's
+    energy balance. 0 with the paper's springs (each becomes the other
+    at the same stretch) and at the defaults' gaits; positive with ``ankle_reset = 1`` and an
+    ``ankle_rest`` above the landing spring's stretch at toe-strike (docs/model.md).
+
+    Args:
+        q_before: ``(n_q,)`` the configuration at toe-strike before the legs swap
+            (heel pivot, ``ctx_before``); ``q_after``: the same configuration after
+            the swap (push-off, ``ctx_after``).
+    """
+    stance_before, landing_before = ankle_spring_energies(q_before, params, ph.HEEL_PIVOT, ctx_before)
+    stance_after, trailing_after = ankle_spring_energies(q_after, params, ph.PUSH_OFF, ctx_after)
+    return jnp.maximum(trailing_after - stance_before, 0.0) + jnp.maximum(stance_after - landing_before, 0.0)
 
 
 def hip_spring_energy(q, params):

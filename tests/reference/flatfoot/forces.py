@@ -56,6 +56,12 @@ def _rest(p: Mapping[str, float], ctx: dict, strike: str) -> float:
     return p["ankle_rest"] + p["ankle_reset"] * ctx[strike]
 
 
+def stance_spring_torque(q: np.ndarray, p: Mapping[str, float], ctx: dict) -> float:
+    """The stance ankle spring's torque on the shank, ``-k (shank_1 - rest)`` (forward
+    positive; the foot feels its opposite)."""
+    return -p["k"] * (q[SHANK_1] - _rest(p, ctx, "shank_1_strike"))
+
+
 def _pivot(q, p, ctx, phase):
     """``(w, sign, rest)`` of foot 2's pivot in ``phase``: ``phi = atan2(w)`` with
     ``w = sign (ankle_2 - anchor)`` and the spring's rest angle; ``None`` off the ground."""
@@ -75,6 +81,24 @@ def spring_energy(q: np.ndarray, p: Mapping[str, float], phase: int, ctx: dict) 
         w, _, rest = pivot
         energy += 0.5 * p["k"] * (rest - math.atan2(w[1], w[0])) ** 2
     return energy
+
+
+def reset_work(q_before: np.ndarray, ctx_before: dict, q_after: np.ndarray, ctx_after: dict, p: Mapping[str, float]) -> float:
+    """Work done on the ankle springs at toe-strike (docs/model.md): the old stance
+    spring becomes the trailing toe's, the landing heel's becomes the stance
+    spring; each one's rise in energy across the swap (same configuration) is
+    an actuator's work, a fall is lost."""
+
+    def stance(q, ctx):
+        return 0.5 * p["k"] * (q[SHANK_1] - _rest(p, ctx, "shank_1_strike")) ** 2
+
+    def pivoting(q, ctx, phase):
+        w, _, rest = _pivot(q, p, ctx, phase)
+        return 0.5 * p["k"] * (rest - math.atan2(w[1], w[0])) ** 2
+
+    old_stance = pivoting(q_after, ctx_after, PUSH_OFF) - stance(q_before, ctx_before)
+    landing = stance(q_after, ctx_after) - pivoting(q_before, ctx_before, HEEL_PIVOT)
+    return max(old_stance, 0.0) + max(landing, 0.0)
 
 
 def joint_forces(q: np.ndarray, p: Mapping[str, float], phase: int, ctx: dict) -> np.ndarray:

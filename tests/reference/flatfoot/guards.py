@@ -17,18 +17,19 @@ import numpy as np
 from tests.reference.flatfoot import kinematics as kin
 from tests.reference.flatfoot.constraints import KNEE_1, KNEE_2
 from tests.reference.flatfoot.dynamics import accelerations
-from tests.reference.flatfoot.forces import ON_TOE, reactions
+from tests.reference.flatfoot.forces import ON_TOE, reactions, stance_spring_torque
 from tests.reference.flatfoot.params import (
     FALL_HEIGHT, FLEXION_LIMIT, HEEL_PIVOT, IN_AIR, LATCHED, LOCKED_SWING, N_Q, PUSH_OFF, RELEASED,
     SEGMENT_LIMIT, SHANK_RELEASE, SWING, X_H, Y_H, foot_arms,
 )  # fmt: skip
 
 NAMES = ("unlock", "knee_flex", "toe_off", "knee_strike", "heel_strike", "toe_strike", "fall", "leg_range",
-         "stall", "running", "scuff", "slip", "knee_buckle")  # fmt: skip
+         "stall", "running", "scuff", "slip", "knee_buckle", "foot_roll")  # fmt: skip
 G = {name: i for i, name in enumerate(NAMES)}
 #: Failure guards and their status, in order of precedence (the first non-positive wins).
 FAILURES = (("fall", "fell"), ("leg_range", "fell"), ("stall", "stalled"), ("running", "running"),
-            ("scuff", "scuffing"), ("slip", "slipping"), ("knee_buckle", "knee_buckled"))  # fmt: skip
+            ("scuff", "scuffing"), ("slip", "slipping"), ("knee_buckle", "knee_buckled"),
+            ("foot_roll", "foot_rolling"))  # fmt: skip
 #: Phases in which the swing knee rests on its extension stop (and may be released).
 ON_STOP = (PUSH_OFF, LOCKED_SWING)
 
@@ -89,6 +90,13 @@ def guard_values(t: float, y: np.ndarray, p: Mapping[str, float], phase: int, ct
     g[G["slip"]] = min(cone(stance, p), cone(heel, p) if phase == HEEL_PIVOT else 1.0)
     if p["stance_latch"] < 0.5:
         g[G["knee_buckle"]] = min(lam[KNEE_1], lam[KNEE_2] if phase == HEEL_PIVOT else 1.0)
+    # The massless flat stance foot is in moment balance about its ankle: the
+    # normal force's moment N * cop (counter-clockwise positive) cancels the
+    # spring's torque on the foot, the opposite of its torque on the shank; the
+    # centre of pressure must lie on the foot (a_h behind the ankle, a_t ahead).
+    a_h, _ = foot_arms(p)
+    cop_moment = stance_spring_torque(q, p, ctx)
+    g[G["foot_roll"]] = min(a_t * stance[1] - cop_moment, cop_moment + a_h * stance[1])
     return g
 
 
@@ -102,7 +110,7 @@ def first_failure(g: np.ndarray) -> str | None:
 
 def active(phase: int, p: Mapping[str, float], ctx: dict) -> list[int]:
     """Guards that can fire in ``phase`` with latch state ``ctx["knee_2"]`` (the others are 1 throughout)."""
-    names = ["fall", "leg_range", "stall", "running", "slip"]
+    names = ["fall", "leg_range", "stall", "running", "slip", "foot_roll"]
     if phase in ON_STOP:
         names.append("unlock" if ctx["knee_2"] == LATCHED else "knee_flex" if ctx["knee_2"] == RELEASED else None)
     if phase in ON_TOE:

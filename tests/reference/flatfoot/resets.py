@@ -146,7 +146,8 @@ _NEXT = {
     "heel_strike": {SWING: HEEL_PIVOT, LOCKED_SWING: HEEL_PIVOT},
 }
 _FAILURE_OF_GUARD = {"fall": "fell", "leg_range": "fell", "stall": "stalled", "running": "running",
-                     "scuff": "scuffing", "slip": "slipping", "knee_buckle": "knee_buckled"}  # fmt: skip
+                     "scuff": "scuffing", "slip": "slipping", "knee_buckle": "knee_buckled",
+                     "foot_roll": "foot_rolling"}  # fmt: skip
 
 
 def _strike_status(name, q, qd, p, ctx):

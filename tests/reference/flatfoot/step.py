@@ -27,7 +27,7 @@ from scipy.integrate import solve_ivp
 from tests.reference.flatfoot import constraints as con
 from tests.reference.flatfoot import guards as gd
 from tests.reference.flatfoot.dynamics import vector_field
-from tests.reference.flatfoot.forces import actuator_work
+from tests.reference.flatfoot.forces import actuator_work, reset_work
 from tests.reference.flatfoot.params import (
     IN_AIR, LATCHED, N_Q, PUSH_OFF, SHANK_1, SHANK_2, THIGH_1, X_H, Y_H, chord, foot_arms, params as paper_params,
 )  # fmt: skip
@@ -123,9 +123,10 @@ def _named_at_start(g0: np.ndarray) -> str:
 
 def run_step(y: np.ndarray, phase: int, ctx: dict, p: Mapping[str, float], rtol=RTOL, atol=ATOL) -> dict:
     """One step from a full state; a dict with ``status`` (``"ok"`` or a status name),
-    ``y`` (after the swap), ``ctx``, ``time``, ``length``, ``work`` (hip and ankle actuators), ``n_events``,
+    ``y`` (after the swap), ``ctx``, ``time``, ``length``, ``work`` (hip and ankle actuators, and
+    ``reset_work``: the ankle springs wound up at toe-strike, ``forces.reset_work``), ``n_events``,
     ``events`` (the ``(name, t)`` log) and ``min_clearance`` (NaN without an interior minimum)."""
-    t, n_events, length, work = 0.0, 0, 0.0, 0.0
+    t, n_events, length, work, wound = 0.0, 0, 0.0, 0.0, 0.0
     while True:
         g0 = gd.guard_values(t, y, p, phase, ctx)
         if g0.min() < -START_GUARD_MARGIN:
@@ -142,6 +143,9 @@ def run_step(y: np.ndarray, phase: int, ctx: dict, p: Mapping[str, float], rtol=
             work += actuator_work(y[:N_Q], y_ev[:N_Q], p, phase, ctx)
             tr = on_event(name, t_ev, y_ev, p, phase, ctx)
             status = tr.status
+            if status is None and tr.done:
+                wound = reset_work(y_ev[:N_Q], ctx, tr.y[:N_Q], tr.ctx, p)
+                work += wound
             if status is None and not np.all(np.isfinite(tr.y)):
                 status = "nonfinite"
         t = t_ev
@@ -154,7 +158,7 @@ def run_step(y: np.ndarray, phase: int, ctx: dict, p: Mapping[str, float], rtol=
         if status is not None:
             clear = ctx["min_clearance"]
             return {"status": status, "y": y if status == "ok" else y_ev, "ctx": ctx, "phase": phase, "time": t,
-                    "length": length, "work": work, "n_events": n_events, "events": ctx["events"],
+                    "length": length, "work": work, "reset_work": wound, "n_events": n_events, "events": ctx["events"],
                     "min_clearance": clear if math.isfinite(clear) else math.nan}  # fmt: skip
 
 
