@@ -70,7 +70,8 @@ def distal(angle: Array) -> Array:
 
 
 class Transition(NamedTuple):
-    """What follows an event. All leaves are scalars or vectors of the state's dtype."""
+    """What follows an event. All leaves are scalars or vectors of the state's dtype
+    (``work`` may be left at its default, a Python 0.0)."""
 
     phase: Int32[Array, ""]  # the next phase
     y: Float[Array, "2*n_q"]  # state after the reset

@@ -136,7 +136,8 @@ def _variables(model: Walker, traj: Trajectory, length_u: str, time_u: str) -> d
             "units": power_u,
         }),
         "work": ("time", traj.work, {
-            "long_name": "cumulative actuator work since the start (Simpson's rule between samples on the dense solution)",
+            "long_name": "cumulative actuator work since the start (Simpson's rule between samples on the dense solution; "
+                         "a reset's own work added at its event)",
             "units": energy_u,
         }),
         "step_status": ("step_number", traj.step_status, {"long_name": "outcome of each step (0: completed)", **flag_attributes()}),

@@ -108,14 +108,30 @@ def _heel_load(ankle_2, shank_2, params, ctx):
     return _heel_spring(ankle_2, shank_2, params, ctx) + _heel_brake(ankle_2, shank_2, params, ctx)
 
 
-def ankle_spring_energies(q, params, phase, ctx):
-    """``(stance, trailing)``: elastic energy of foot 1's and foot 2's ankle springs in ``phase``.
+def ankle_deflections(q, params, phase, ctx):
+    """``(stance, trailing)``: how far foot 1's and foot 2's ankle springs are turned
+    from relaxed in ``phase`` (rad; ``shank - phi - rest``, positive with the shank
+    turned back; 0 for a foot in the air).
 
     Leg 1 stands flat all step (``phi = 0``); leg 2 pivots on its toe in push-off
-    and shank release, on its heel in heel pivot, and is relaxed in swing. A
-    foot standing on the ground (flat or on its toe) is relaxed at its
-    :func:`rest_angles` (the defaults: the shank perpendicular to the foot).
+    and shank release, on its heel in heel pivot (relaxed at its landing angle,
+    ``rest = -swing_dorsi``), and is relaxed in swing. A foot standing on the
+    ground (flat or on its toe) is relaxed at its :func:`rest_angles` (the
+    defaults: the shank perpendicular to the foot).
     """
+    stance = q[geo.SHANK_1] - rest_angles(params, ctx)[0]
+    ankle_2, shank_2 = geo.ankle(q, params, 2), q[geo.SHANK_2]
+    trailing = jnp.where(
+        ph.ON_TOE[phase],
+        _toe_deflection(ankle_2, shank_2, params, ctx),
+        jnp.where(ph.ON_HEEL[phase], _heel_stretch(ankle_2, shank_2, params, ctx), 0.0),
+    )
+    return stance, trailing
+
+
+def spring_energy(q, params, phase, ctx):
+    """Elastic energy of both ankle springs (``k/2`` times their :func:`ankle_deflections`
+    squared) and the hip spring in ``phase`` (scalar)."""
     stance = 0.5 * params["k"] * (q[geo.SHANK_1] - rest_angles(params, ctx)[0]) ** 2
     ankle_2, shank_2 = geo.ankle(q, params, 2), q[geo.SHANK_2]
     trailing = jnp.where(
@@ -123,12 +139,6 @@ def ankle_spring_energies(q, params, phase, ctx):
         _toe_spring(ankle_2, shank_2, params, ctx),
         jnp.where(ph.ON_HEEL[phase], _heel_spring(ankle_2, shank_2, params, ctx), 0.0),
     )
-    return stance, trailing
-
-
-def spring_energy(q, params, phase, ctx):
-    """Elastic energy of both ankle springs and the hip spring in ``phase`` (scalar)."""
-    stance, trailing = ankle_spring_energies(q, params, phase, ctx)
     return stance + trailing + hip_spring_energy(q, params)
 
 
@@ -139,21 +149,32 @@ def reset_work(q_before, ctx_before, q_after, ctx_after, params):
     the landing foot's, relaxed at its landing angle in heel pivot, becomes the
     stance spring relaxed at its rest angle, and the stance foot's becomes the
     trailing toe's, whose rest angle moves with ``ankle_reset``
-    (:func:`rest_angles`). A spring whose energy falls there lets it go (lost,
-    as an impact's loss is); one whose energy rises was wound up by something,
-    and that work is counted here as an actuator's, not hidden in the event's
-    energy balance. 0 with the paper's springs (each becomes the other
-    at the same stretch) and at the defaults' gaits; positive with ``ankle_reset = 1`` and an
-    ``ankle_rest`` above the landing spring's stretch at toe-strike (docs/model.md).
+    (:func:`rest_angles`). Each change is a move of the spring's relaxed angle
+    past a still foot: the energy a spring lets go on the way is lost (as an
+    impact's loss is), the energy it is wound up with is an actuator's work,
+    counted here rather than hidden in the event's energy balance. A move that
+    takes the relaxed angle through the foot's angle (the deflection changes
+    sign) lets all the energy go first and winds the spring from slack, so its
+    work is the energy after; otherwise the rise, if any: the least positive
+    work of any move between the two (docs/model.md, "Forces"). 0 at the
+    defaults' gaits; positive wherever ``ankle_rest`` turns a standing spring
+    past the foot's angle, and with ``ankle_reset = 1`` at every ``ankle_rest > 0``.
 
     Args:
         q_before: ``(n_q,)`` the configuration at toe-strike before the legs swap
-            (heel pivot, ``ctx_before``); ``q_after``: the same configuration after
-            the swap (push-off, ``ctx_after``).
+            (heel pivot, discrete state ``ctx_before``); ``q_after``: the same
+            configuration after the swap (push-off, ``ctx_after``).
+        params: the walker's parameters (``k`` and the rest angles' options).
     """
-    stance_before, landing_before = ankle_spring_energies(q_before, params, ph.HEEL_PIVOT, ctx_before)
-    stance_after, trailing_after = ankle_spring_energies(q_after, params, ph.PUSH_OFF, ctx_after)
-    return jnp.maximum(trailing_after - stance_before, 0.0) + jnp.maximum(stance_after - landing_before, 0.0)
+    stance_before, landing_before = ankle_deflections(q_before, params, ph.HEEL_PIVOT, ctx_before)
+    stance_after, trailing_after = ankle_deflections(q_after, params, ph.PUSH_OFF, ctx_after)
+
+    def wound(before, after):
+        kept = jnp.where(before * after > 0.0, before**2, 0.0)  # through slack: nothing kept
+        return 0.5 * params["k"] * jnp.maximum(after**2 - kept, 0.0)
+
+    # The legs swap: the old stance spring trails, the landing spring stands.
+    return wound(stance_before, trailing_after) + wound(landing_before, stance_after)
 
 
 def hip_spring_energy(q, params):

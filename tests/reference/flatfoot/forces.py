@@ -84,21 +84,25 @@ def spring_energy(q: np.ndarray, p: Mapping[str, float], phase: int, ctx: dict) 
 
 
 def reset_work(q_before: np.ndarray, ctx_before: dict, q_after: np.ndarray, ctx_after: dict, p: Mapping[str, float]) -> float:
-    """Work done on the ankle springs at toe-strike (docs/model.md): the old stance
-    spring becomes the trailing toe's, the landing heel's becomes the stance
-    spring; each one's rise in energy across the swap (same configuration) is
-    an actuator's work, a fall is lost."""
+    """Work done on the ankle springs at toe-strike (docs/model.md, "Forces"): the old
+    stance spring becomes the trailing toe's, the landing heel's becomes the stance
+    spring, each by a move of its relaxed angle past the still foot. Energy let go
+    on the way is lost; energy wound up is an actuator's work. A deflection that
+    changes sign went through slack: all of it let go, then wound from zero."""
 
     def stance(q, ctx):
-        return 0.5 * p["k"] * (q[SHANK_1] - _rest(p, ctx, "shank_1_strike")) ** 2
+        return q[SHANK_1] - _rest(p, ctx, "shank_1_strike")
 
     def pivoting(q, ctx, phase):
         w, _, rest = _pivot(q, p, ctx, phase)
-        return 0.5 * p["k"] * (rest - math.atan2(w[1], w[0])) ** 2
+        return rest - math.atan2(w[1], w[0])
 
-    old_stance = pivoting(q_after, ctx_after, PUSH_OFF) - stance(q_before, ctx_before)
-    landing = stance(q_after, ctx_after) - pivoting(q_before, ctx_before, HEEL_PIVOT)
-    return max(old_stance, 0.0) + max(landing, 0.0)
+    def wound(before, after):
+        kept = before**2 if before * after > 0.0 else 0.0
+        return 0.5 * p["k"] * max(after**2 - kept, 0.0)
+
+    return (wound(stance(q_before, ctx_before), pivoting(q_after, ctx_after, PUSH_OFF))
+            + wound(pivoting(q_before, ctx_before, HEEL_PIVOT), stance(q_after, ctx_after)))
 
 
 def joint_forces(q: np.ndarray, p: Mapping[str, float], phase: int, ctx: dict) -> np.ndarray:

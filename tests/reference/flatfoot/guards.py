@@ -57,7 +57,7 @@ def clearance(q: np.ndarray, qd: np.ndarray, p: Mapping[str, float], ctx: dict):
 
 
 def guard_values(t: float, y: np.ndarray, p: Mapping[str, float], phase: int, ctx: dict) -> np.ndarray:
-    """``(13,)`` guards in the order of :data:`NAMES` at time ``t`` of the step."""
+    """``(14,)`` guards in the order of :data:`NAMES` at time ``t`` of the step."""
     q, qd = y[:N_Q], y[N_Q:]
     _, lam = accelerations(y, p, phase, ctx)
     stance, toe, heel = reactions(q, lam, p, phase, ctx)
