@@ -18,14 +18,16 @@ benchmark), so it stays opt-in: it alone is most of the suite's 10-minute budget
 
 import os
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
 from jaxwalk.gait import find_gait
 from jaxwalk.global_stability.mfpt import MFPTOptions, mesh_states, mfpt, plan
-from jaxwalk.global_stability.walks import monte_carlo
+from jaxwalk.global_stability.walks import WalkEnd, monte_carlo, pooled_walks, walk_until
 from jaxwalk.models import get_model
+from jaxwalk.status import Status
 
 #: sigma where the MFPT is 20-500 steps (model length units: leg lengths; metres), and the chain's mesh.
 CASES = {"simplest": (1.5e-4, MFPTOptions(sigma=1.5e-4, mesh=21, samples=64, span=5.0)), "compass": (3e-3, MFPTOptions(sigma=3e-3, mesh=13, samples=48, span=5.0))}
@@ -56,6 +58,39 @@ def test_mfpt_agrees_with_monte_carlo(name):
     assert mc.censored == 0
     assert chain.error < 0.5 * chain.mfpt
     assert abs(chain.mfpt - mc.mean) <= 3 * mc.standard_error + chain.error
+
+
+def test_pooled_walks_are_each_walk_alone_whatever_lane_runs_it():
+    """The Monte Carlo walks and the basin's returns run on a few lanes, each lane taking
+    the next walk when its own ends (``pooled_walks``): every walk ends (steps, status,
+    stop, state) exactly as ``walk_until`` alone ends it. 40 starts near the simplest
+    walker's gait on random terrain, 8 lanes, step limits 5-59: some walks scuff, some
+    come back near the gait (the stop rule), most reach their limit; rows past a
+    ``valid`` prefix are not walked."""
+    model, params, v = _gait("simplest")
+    n, sigma = 40, 1e-4
+    keys = jax.vmap(lambda i: jax.random.fold_in(jax.random.PRNGKey(1), i))(jnp.arange(n))
+    rng = np.random.default_rng(0)
+    starts = jnp.asarray(v + 4e-4 * rng.standard_normal((n, len(v))))
+    limits = jnp.asarray(rng.integers(5, 60, n), jnp.int32)
+    each = {k: jnp.full(n, x) for k, x in params.items()}
+
+    def drop(key, k):
+        return sigma * jax.random.normal(jax.random.fold_in(key, k), dtype=starts.dtype)
+
+    def near(v_):
+        return jnp.max(jnp.abs(v_ - v)) < 1.5e-4
+
+    alone = jax.jit(jax.vmap(lambda key, s, m: walk_until(model, params, s, m, drop=lambda k: drop(key, k), stop=near)))(
+        keys, starts, limits)
+    pooled = jax.jit(lambda valid: pooled_walks(model, each, starts, limits, 8, drop=lambda i, k: drop(keys[i], k),
+                                                stop=lambda _, v_: near(v_), valid=valid))
+    for got, rows in ((pooled(jnp.ones(n, bool)), n), (pooled(jnp.arange(n) < 30), 30)):
+        for field in WalkEnd._fields:
+            np.testing.assert_array_equal(np.asarray(getattr(got, field))[:rows], np.asarray(getattr(alone, field))[:rows])
+        assert not np.asarray(got.steps)[rows:].any()
+    status, stopped = np.asarray(alone.status), np.asarray(alone.stopped)
+    assert (status != Status.OK).any() and stopped.any() and ((status == Status.OK) & ~stopped).any()
 
 
 def test_flat_ground_never_falls():

@@ -70,13 +70,27 @@ CALL_STARTS = 512
 
 @functools.lru_cache(maxsize=None)
 def _fate_program(model, options, solver):
-    from jaxwalk.analyses.base import row_program
-    from jaxwalk.global_stability.basin import fate
+    import jax
+    import jax.numpy as jnp
 
-    def one(p, start: FateStart):
-        return fate(model, p, start.v, start.target[None], start.scale, options, solver)
+    from jaxwalk import program_cache
+    from jaxwalk.batching import Rows
+    from jaxwalk.global_stability.basin import cycle_distance, fate_of
+    from jaxwalk.global_stability.walks import pooled_walks
 
-    return row_program(one, model.lockstep_batch, "basin_fate", model, options, solver)
+    # Starts near the basin's edge walk many steps, most return in a few: each
+    # lane takes the next start when its own walk ends.
+    def program(rows: Rows):
+        start: FateStart = rows.inputs
+        n = start.v.shape[0]
+        end = pooled_walks(model, rows.params, start.v, jnp.full(n, options.steps, jnp.int32), model.lockstep_batch,
+                           stop=lambda i, v: cycle_distance(v, start.target[i][None], start.scale[i]) < options.tol,
+                           valid=rows.valid, solver=solver)
+        return jax.vmap(lambda e, target, scale: fate_of(e, target[None], scale))(end, start.target, start.scale)
+
+    program = jax.jit(program)
+    program_cache.register(program, "basin_fate", model, options, solver)
+    return program
 
 
 def walk_starts(config: BasinConfig, model, params, v_star: np.ndarray, starts: np.ndarray, solver, progress=None):

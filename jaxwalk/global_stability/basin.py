@@ -53,7 +53,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxwalk import program_cache
-from jaxwalk.global_stability.walks import walk_until
+from jaxwalk.global_stability.walks import WalkEnd, pooled_walks, walk_until
 from jaxwalk.status import Status
 from jaxwalk.step import SolverOptions
 from jaxwalk.walker import Walker
@@ -159,6 +159,11 @@ def fate(model: Walker, params, v0: Array, targets: Array, scale: Array, options
     """The fate of one start ``v0`` (module docstring; one walk, vmap it)."""
     end = walk_until(model, params, v0, options.steps, stop=lambda v: cycle_distance(v, targets, scale) < options.tol,
                      solver=solver)
+    return fate_of(end, targets, scale)
+
+
+def fate_of(end: WalkEnd, targets: Array, scale: Array) -> Fate:
+    """The :class:`Fate` of one walk that ended at ``end``."""
     status = jnp.where(end.status != Status.OK, end.status,
                        jnp.where(end.stopped, jnp.int8(Status.OK), jnp.int8(Status.NOT_RETURNED))).astype(jnp.int8)
     return Fate(status, end.steps, cycle_distance(end.v, targets, scale))
@@ -166,9 +171,13 @@ def fate(model: Walker, params, v0: Array, targets: Array, scale: Array, options
 
 def fates(model: Walker, params, starts: Array, targets: Array, scale: Array, options: BasinOptions,
           solver: SolverOptions = SolverOptions()) -> Fate:
-    """:func:`fate` of every row of ``starts`` ``(n, n_v)``, ``model.lockstep_batch`` walks in lockstep."""
-    return jax.lax.map(lambda v: fate(model, params, v, targets, scale, options, solver), starts,
-                       batch_size=model.lockstep_batch)
+    """:func:`fate` of every row of ``starts`` ``(n, n_v)``: ``model.lockstep_batch`` walks in
+    lockstep, each lane taking the next start when its own walk ends (:func:`~jaxwalk.global_stability.walks.pooled_walks`)."""
+    n = starts.shape[0]
+    each = jax.tree_util.tree_map(lambda x: jnp.broadcast_to(x, (n,) + jnp.shape(x)), params)
+    end = pooled_walks(model, each, starts, jnp.full(n, options.steps, jnp.int32), min(model.lockstep_batch, n),
+                       stop=lambda _, v: cycle_distance(v, targets, scale) < options.tol, solver=solver)
+    return jax.vmap(lambda e: fate_of(e, targets, scale))(end)
 
 
 @program_cache.serializable
