@@ -175,9 +175,10 @@ def _mark_beyond(ax, view: xr.Dataset, name: str, layout: Layout, low: float, hi
     values = np.where(ok, view[name].transpose(layout.y, layout.x).values, np.nan)
     values[~np.isfinite(values)] = np.nan  # an infinite value is drawn blank, not at the scale's end
     xx, yy = np.meshgrid(view[layout.x].values, view[layout.y].values)
+    size = min(16.0, (300.0 / max(xx.shape)) ** 2)  # points^2: no larger than a cell of a fine grid
     for side, cells in (("above", values > high), ("below", values < low)):
         if cells.any():
-            ax.scatter(xx[cells], yy[cells], marker=BEYOND_MARKERS[side], s=16, facecolors="white",
+            ax.scatter(xx[cells], yy[cells], marker=BEYOND_MARKERS[side], s=size, facecolors="white",
                        edgecolors="k", linewidths=0.5, zorder=3, gid=f"beyond-scale-{side}")
             beyond[side] += int(cells.sum())
 
