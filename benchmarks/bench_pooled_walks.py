@@ -70,13 +70,19 @@ def _timed(program, rows, repeat: int):
 
 
 def _lockstep_lane_steps(steps: np.ndarray, lanes: int) -> int:
-    """Steps the lockstep sub-batches run: per call of CALL_WALKS rows split over the threads."""
-    total, threads = 0, thread_count()
-    for c0 in range(0, len(steps), walks.CALL_WALKS):
-        call = steps[c0:c0 + walks.CALL_WALKS]
-        for share in np.array_split(call, threads):
+    """Steps the lockstep sub-batches run, as ``run_chunks`` and ``run_on_threads`` lay
+    the walks out: calls of CALL_WALKS rows (the last padded with copies of the last
+    walk), every n-th row to each thread, a sub-batch of padding alone skipped."""
+    total, threads, call = 0, thread_count(), walks.CALL_WALKS
+    for c0 in range(0, len(steps), call):
+        block = steps[c0:c0 + call]
+        valid = np.arange(call) < len(block)
+        block = np.concatenate([block, np.repeat(block[-1:], call - len(block))])
+        for i in range(threads):
+            share, real = block[i::threads], valid[i::threads]
             for b0 in range(0, len(share), lanes):
-                total += lanes * (int(share[b0:b0 + lanes].max()) + 1)
+                if real[b0:b0 + lanes].any():
+                    total += lanes * (int(share[b0:b0 + lanes].max()) + 1)
     return total
 
 

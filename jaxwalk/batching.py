@@ -39,7 +39,10 @@ class Rows(NamedTuple):
             arrays declared by the program (a fixed point, a start, a line's
             carry); ``()`` when it needs nothing more.
         valid: ``(n,)`` bool, False at rows that only pad a call to its fixed
-            shape (:func:`run_chunks` sets it; ``None``: every row is real).
+            shape (:func:`run_chunks` sets it; ``None``: every row is real). The
+            padding follows the real rows, in a call and in every worker
+            thread's share of it (every n-th row), which programs that hand rows
+            out in order rely on (:func:`jaxwalk.global_stability.walks.pooled_walks`).
     """
 
     params: dict[str, Array]

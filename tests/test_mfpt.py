@@ -64,15 +64,15 @@ def test_pooled_walks_are_each_walk_alone_whatever_lane_runs_it():
     """The Monte Carlo walks and the basin's returns run on a few lanes, each lane taking
     the next walk when its own ends (``pooled_walks``): every walk ends (steps, status,
     stop, state) exactly as ``walk_until`` alone ends it. 40 starts near the simplest
-    walker's gait on random terrain, 8 lanes, step limits 5-59: some walks scuff, some
+    walker's gait on random terrain, 8 lanes, step limits 5-59 (and one 0): some walks scuff, some
     come back near the gait (the stop rule), most reach their limit; rows past a
-    ``valid`` prefix are not walked."""
+    ``valid`` prefix are not walked, also where fewer than the lanes are real."""
     model, params, v = _gait("simplest")
     n, sigma = 40, 1e-4
     keys = jax.vmap(lambda i: jax.random.fold_in(jax.random.PRNGKey(1), i))(jnp.arange(n))
     rng = np.random.default_rng(0)
     starts = jnp.asarray(v + 4e-4 * rng.standard_normal((n, len(v))))
-    limits = jnp.asarray(rng.integers(5, 60, n), jnp.int32)
+    limits = jnp.asarray(rng.integers(5, 60, n), jnp.int32).at[1].set(0)  # a limit of 0: not a step
     each = {k: jnp.full(n, x) for k, x in params.items()}
 
     def drop(key, k):
@@ -85,7 +85,8 @@ def test_pooled_walks_are_each_walk_alone_whatever_lane_runs_it():
         keys, starts, limits)
     pooled = jax.jit(lambda valid: pooled_walks(model, each, starts, limits, 8, drop=lambda i, k: drop(keys[i], k),
                                                 stop=lambda _, v_: near(v_), valid=valid))
-    for got, rows in ((pooled(jnp.ones(n, bool)), n), (pooled(jnp.arange(n) < 30), 30)):
+    for rows in (n, 30, 3):  # all rows; a call's padding after 30; fewer real rows than lanes
+        got = pooled(jnp.arange(n) < rows)
         for field in WalkEnd._fields:
             np.testing.assert_array_equal(np.asarray(getattr(got, field))[:rows], np.asarray(getattr(alone, field))[:rows])
         assert not np.asarray(got.steps)[rows:].any()

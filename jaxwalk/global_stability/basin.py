@@ -172,7 +172,8 @@ def fate_of(end: WalkEnd, targets: Array, scale: Array) -> Fate:
 def fates(model: Walker, params, starts: Array, targets: Array, scale: Array, options: BasinOptions,
           solver: SolverOptions = SolverOptions()) -> Fate:
     """:func:`fate` of every row of ``starts`` ``(n, n_v)``: ``model.lockstep_batch`` walks in
-    lockstep, each lane taking the next start when its own walk ends (:func:`~jaxwalk.global_stability.walks.pooled_walks`)."""
+    lockstep, each lane taking the next start when its own walk ends
+    (:func:`~jaxwalk.global_stability.walks.pooled_walks`)."""
     n = starts.shape[0]
     each = jax.tree_util.tree_map(lambda x: jnp.broadcast_to(x, (n,) + jnp.shape(x)), params)
     end = pooled_walks(model, each, starts, jnp.full(n, options.steps, jnp.int32), min(model.lockstep_batch, n),
