@@ -210,6 +210,26 @@ def test_2d_one_curve_per_value_of_the_other_axis():
     assert "scuffing (10 points)" in labels
 
 
+def test_a_variable_with_an_error_estimate_gets_error_bars():
+    """An MFPT's error estimate is often half its value: where ``<name>_error`` exists,
+    each gait's value carries its bar (of that size, in the curve's colour) and the
+    legend names the estimate; other variables get none."""
+    grid = 'm_h = { values = [20.0, 5.0] }\ngamma = { start = 0.01, stop = 0.1, num = 10 }\n'
+    ds = synthetic(grid, failures=lambda u: np.where(u[0] > 0.9, Status.SCUFFING, 0))
+    ds["mfpt"] = (100.0 + 0.0 * ds["speed"]).assign_attrs(long_name="MFPT", units="steps")
+    ds["mfpt_error"] = (30.0 + 0.0 * ds["speed"]).assign_attrs(long_name="MFPT error", units="steps")
+    layout = choose_layout(ds, "lines")
+    fig = lines_figure(ds, "mfpt", layout)
+    bars = [c for ax in fig.axes for c in ax.collections if c.get_gid() == "error-bar"]
+    assert len(bars) == 1  # on the curve with gaits; the other (all scuffing) has no value to bar
+    ok = int((ds["status"] == Status.OK).sum())
+    segments = [seg for c in bars for seg in c.get_segments()]
+    assert len(segments) == ok and all(abs(seg[1][1] - seg[0][1] - 60.0) < 1e-9 for seg in segments)
+    assert "error bars: \u00b1 mfpt_error" in legend_texts(fig)
+    plain = lines_figure(ds, "speed", layout)
+    assert not [c for ax in plain.axes for c in ax.collections if c.get_gid() == "error-bar"]
+
+
 def test_lines_of_a_3d_grid_are_small_multiples():
     ds = synthetic(GRID_3D)
     fig = lines_figure(ds, "lambda_max", choose_layout(ds, "lines"))

@@ -8,7 +8,8 @@ points have no value, so they are marked on a thin strip under each panel,
 one row per curve in the curve's colour, with one marker shape per status,
 named in the legend. ``lambda_max`` figures draw the stability limit
 ``lambda_max = 1``; a variable that asks for it is drawn on a logarithmic value
-axis (:mod:`jaxwalk.plot.scale`).
+axis (:mod:`jaxwalk.plot.scale`); a variable with an error estimate beside it
+(``<name>_error``: the MFPT's, the basin fraction's) gets error bars.
 """
 
 from __future__ import annotations
@@ -139,6 +140,7 @@ def _panel(ax, strip, view: xr.Dataset, name: str, layout: Layout, picked, color
                 unstable_any = True
                 ax.plot(x[unstable], y[unstable], "o", markersize=4, markerfacecolor="white", markeredgecolor=color, linestyle="none")
         ax.plot(x[stable], y[stable], "o", markersize=3, color=color, linestyle="none")
+        _error_bars(ax, curve, name, layout, ok, y, color)
         handles.append(line)
         for code in failure_codes(status):
             sel = status == code
@@ -148,6 +150,28 @@ def _panel(ax, strip, view: xr.Dataset, name: str, layout: Layout, picked, color
                 linestyle="none", gid=f"failed:{code}",
             )
     return {"handles": handles, "unstable": unstable_any}
+
+
+def error_name(ds: xr.Dataset, name: str) -> str | None:
+    """The variable holding ``name``'s error estimate (``mfpt_error``,
+    ``basin_fraction_error``), if the dataset has one."""
+    return f"{name}_error" if f"{name}_error" in ds else None
+
+
+def _error_bars(ax, curve: xr.Dataset, name: str, layout: Layout, ok: np.ndarray, y: np.ndarray, color) -> None:
+    """``+-`` the variable's own error estimate at each gait: an MFPT's is often
+    half its value, and a curve drawn without it claims an order it may not have.
+    On a log axis a bar whose lower end is not positive runs off the bottom."""
+    err_name = error_name(curve, name)
+    if err_name is None:
+        return
+    err = np.where(ok, curve[err_name].transpose(layout.x).values, np.nan)
+    shown = np.isfinite(y) & np.isfinite(err)
+    if shown.any():
+        bars = ax.errorbar(curve[layout.x].values[shown], y[shown], yerr=err[shown], fmt="none", ecolor=color,
+                           elinewidth=1.0, capsize=2.5)
+        for part in bars.lines[2]:
+            part.set_gid("error-bar")
 
 
 def _style_strip(strip, labels: list[str], *, first_col: bool) -> None:
@@ -172,6 +196,9 @@ def _key_handles(ds: xr.Dataset, name: str, counts: dict[int, int], unstable: bo
         handles.append(Line2D([], [], marker="o", markersize=3, color="0.3", linestyle="none", label=r"stable gait ($\lambda_{\max} < 1$)"))
     if unstable:
         handles.append(Line2D([], [], marker="o", markersize=4, markerfacecolor="white", markeredgecolor="0.3", linestyle="none", label=UNSTABLE))
+    err_name = error_name(ds, name)
+    if err_name is not None:
+        handles.append(Line2D([], [], marker="|", markersize=9, color="0.3", linestyle="none", label=f"error bars: \u00b1 {err_name}"))
     names, causes = status_names(ds["status"]), failure_causes(ds)
     for code in sorted(counts):
         label = legend_label(names.get(code, str(code)), counts[code], shown=subset, cause=causes.get(code))
