@@ -82,6 +82,26 @@ def test_flat_jacobian_matches_central_differences(simplest_maps):
     np.testing.assert_allclose(jac, np.stack(cols, axis=1), rtol=1e-6, atol=1e-6)
 
 
+class _WoundUpSimplest(type(SIMPLEST)):
+    """The simplest walker whose step-ending reset does 0.125 of actuator work
+    (a stand-in for the flat-foot walker's ankle springs wound up at toe-strike)."""
+
+    def on_event(self, guard, t, y, params, phase, ctx):
+        tr = super().on_event(guard, t, y, params, phase, ctx)
+        return tr._replace(work=jnp.where(tr.step_done, 0.125, 0.0))
+
+
+def test_both_engines_add_a_resets_own_work_to_the_step():
+    """``Transition.work`` reaches ``StepResult.work`` on both engines, once per step:
+    the simplest walker is passive, so its step's work is the reset's alone."""
+    model = _WoundUpSimplest()
+    p = model.default_params()
+    v = model.initial_guess(p)
+    for opts in (FLAT, NESTED):
+        _, res = jax.jit(lambda v, opts=opts: step_map(model, v, p, opts))(v)
+        assert int(res.status) == Status.OK and float(res.work) == 0.125, (opts.engine, float(res.work))
+
+
 def test_flat_vmap_equals_single_runs_and_failures_are_statuses():
     """A batch on the flat engine, each lane in its own phase, equals one run per
     config to the map's integration noise (not to round-off as on the nested
