@@ -263,7 +263,7 @@ def _newton_iteration(residual, newton: NewtonOptions, eye: Array):
         # second derivatives ~1e3 for the simplest walker, so 1e-8 matters for J).
         v, k, converged = carry.v, carry.k, carry.converged
         r, jac_r, res = value_and_jacfwd(residual, v)
-        update = -mechanics.solve(jac_r, r)  # unrolled for small n_v: no LAPACK call in the loop
+        update = -mechanics.solve(jac_r, r)  # unrolled for small n_v (mechanics.solve)
         size = jnp.max(jnp.abs(update))
         update = update * jnp.minimum(1.0, newton.max_update / jnp.maximum(size, 1e-300))
         step_failed = res.status != Status.OK

@@ -21,9 +21,10 @@ than removed, so every phase has the same array shapes (a requirement for
 value is known while tracing (the same in every phase) instead drops those rows
 from the linear system; the solution is the same.
 
-Small linear systems are solved by an unrolled Gaussian elimination with partial
-pivoting (see :func:`solve`): on CPU under ``vmap`` it is several times cheaper
-than LAPACK called per batch element, and has no LAPACK call to block on.
+Small linear systems (order 8 or less) are solved by an unrolled Gaussian
+elimination with partial pivoting (see :func:`solve`): on CPU under ``vmap`` it is
+several times cheaper than LAPACK called per batch element. Larger ones (the
+kneed and flat-foot walkers' KKT systems) by LAPACK, one matrix per call.
 """
 
 from __future__ import annotations
@@ -40,8 +41,7 @@ from jaxtyping import ArrayLike, Float
 Array = jax.Array
 
 #: Largest linear system (KKT matrix order) solved by the unrolled elimination
-#: below; larger ones by the same elimination in a ``fori_loop``. Neither calls
-#: LAPACK: see the note on the deadlock above ``_entries``.
+#: below; larger ones by LAPACK one matrix at a time (:func:`_lapack_one`).
 UNROLLED_SOLVE_MAX = 8
 
 
@@ -354,24 +354,59 @@ def solve(a: Float[Array, "n n"], b: Float[Array, "n"]) -> Float[Array, "n"]:
     Orders up to :data:`UNROLLED_SOLVE_MAX` use the unrolled elimination (forward
     and reverse differentiable; reverse mode solves with ``a^T`` by LAPACK);
     larger ones (the kneed and flat-foot walkers' KKT systems, 12 and 15, whose
-    masks change with the phase) the looped one. Not ``jnp.linalg.solve``: with
-    two CPU devices each running its program from its own thread, LAPACK's
-    batched kernels wait on the shared intra-op pool and both devices hung for
-    good (flat-foot gait search, 256 configurations, second call; all threads
-    asleep). The looped elimination costs the flat-foot gait search 3.5x (72
-    against 20 ms per configuration on one device, batch 32) and compiles
-    faster; both give the same gaits (lambda_max to 1e-8).
+    masks change with the phase) LAPACK's ``getrf``/``getrs``, one matrix per
+    call (:func:`_lapack_one`), differentiated as a linear solve (tangents and
+    cotangents solve with the same matrix or its transpose).
     """
     if a.shape[0] <= UNROLLED_SOLVE_MAX:
         return _unrolled_solve(a, b)
-    return _looped_solve(a, b)
+    return jax.lax.custom_linear_solve(
+        lambda v: a @ v, b, solve=lambda _, r: _lapack_one(a, r), transpose_solve=lambda _, r: _lapack_one(a.T, r)
+    )
+
+
+# LAPACK one matrix at a time. jaxlib's batched LAPACK kernels split a batch of
+# more than about 2e5 flops over XLA's intra-op thread pool and wait for the
+# pieces on the thread that called them; when as many programs run at once as the
+# pool has threads (the sweep runs one per core), every pool thread can be such a
+# caller and nothing is left to run the pieces: both were seen asleep for good
+# (benchmarks/README.md, "The KKT solve by LAPACK"). A call of one matrix is never
+# split. Under ``vmap`` on the CPU the rule below keeps it so: a batch of matrices
+# becomes a ``lax.map`` of single calls, and an enclosing ``vmap`` batches that
+# map's body, which calls this function again. A single matrix with a batch of
+# right-hand sides (the tangents of ``jacfwd``) is one call with a matrix
+# right-hand side. Measured on the flat-foot step map, this ran 1.3-1.8x faster
+# than the pivoted elimination in a ``fori_loop`` it replaced, at every batch from
+# 1 to 256. Other backends have no such pool; there a batch is one batched call.
+
+
+@custom_vmap
+def _lapack_one(a: Array, b: Array) -> Array:
+    """``a^-1 b`` by one LAPACK call: ``a`` ``(n, n)``, ``b`` ``(n,)`` or ``(n, k)``."""
+    return jnp.linalg.solve(a, b)
+
+
+@_lapack_one.def_vmap
+def _lapack_one_batched(axis_size, in_batched, a, b):
+    a_batched, b_batched = in_batched
+    if not b_batched:
+        b = jnp.broadcast_to(b, (axis_size,) + b.shape)
+    if not a_batched:
+        columns = jnp.moveaxis(b, 0, -1)  # (n, [k,] batch)
+        x = _lapack_one(a, columns.reshape(columns.shape[0], -1)).reshape(columns.shape)
+        return jnp.moveaxis(x, -1, 0), True
+    if jax.default_backend() != "cpu":
+        return jnp.linalg.solve(a, b), True
+    if axis_size == 1:
+        return _lapack_one(a[0], b[0])[None], True
+    return jax.lax.map(lambda ab: _lapack_one(*ab), (a, b)), True
 
 
 def _looped_solve(a: Array, b: Array) -> Array:
     """``a^-1 b`` by Gaussian elimination with partial pivoting in a ``fori_loop``.
 
     Compiles to a small program (unlike the unrolled elimination) but runs several
-    times slower; for solves outside the integration loop (impacts).
+    times slower than LAPACK; for impacts, once per event.
     """
     n = a.shape[0]
     w = jnp.concatenate([a, b[:, None]], axis=1)

@@ -7,6 +7,7 @@ through the heel-strike impact, computed from the point masses directly
 
 import diffrax
 import jax
+import jax.extend
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -106,8 +107,8 @@ def test_heel_strike_conserves_momenta_and_loses_energy(seed):
 
 @pytest.mark.parametrize("n", [3, 8, 12, 15])
 def test_solve_matches_numpy_and_its_derivative_matches_differences(n):
-    # mechanics.solve replaces LAPACK inside the integration loops: unrolled up
-    # to order 8, looped above (the kneed and flat-foot KKT systems, 12 and 15).
+    # mechanics.solve inside the integration loops: unrolled up to order 8,
+    # LAPACK one matrix per call above (the kneed and flat-foot KKT systems, 12 and 15).
     # A zero on the diagonal forces pivoting; a KKT-like block structure too.
     rng = np.random.default_rng(n)
     a = rng.normal(size=(n, n))
@@ -126,6 +127,41 @@ def test_solve_matches_numpy_and_its_derivative_matches_differences(n):
     batch = np.asarray(jax.vmap(mechanics.solve)(jnp.asarray(batch_a), jnp.asarray(np.stack([b, b]))))
     for i in range(2):
         np.testing.assert_allclose(batch[i], np.linalg.solve(batch_a[i], b), rtol=1e-10, atol=1e-12)
+
+
+def _lapack_batch_shapes(jaxpr) -> list[tuple]:
+    """Operand shapes of every LU factorisation in ``jaxpr`` and its sub-jaxprs."""
+    shapes = []
+    for eqn in jaxpr.eqns:
+        if eqn.primitive.name == "lu":
+            shapes.append(tuple(eqn.invars[0].aval.shape))
+        for sub in jax.extend.core.jaxprs_in_params(eqn.params):
+            shapes += _lapack_batch_shapes(sub)
+    return shapes
+
+
+@pytest.mark.parametrize("batch", [1, 5, 70])
+def test_a_batch_of_kkt_solves_never_hands_lapack_more_than_one_matrix(batch):
+    """jaxlib splits a batched LAPACK call over XLA's intra-op pool and waits on the
+    calling thread, which deadlocked two programs running at once (mechanics.py,
+    above ``_lapack_one``). Every LU in a batched, nested and differentiated solve
+    of order 15 factors one matrix; the results equal NumPy's, and reverse mode
+    equals forward mode."""
+    rng = np.random.default_rng(batch)
+    n = 15
+    a = rng.normal(size=(2, batch, n, n)) + 4 * np.eye(n)
+    b = rng.normal(size=(2, batch, n))
+    nested = jax.vmap(jax.vmap(mechanics.solve))
+    np.testing.assert_allclose(np.asarray(jax.jit(nested)(a, b)), np.linalg.solve(a, b[..., None])[..., 0], rtol=1e-10, atol=1e-12)
+    jac = jax.vmap(jax.vmap(jax.jacfwd(mechanics.solve)))
+    loss = lambda a, b: jnp.sum(jnp.sin(nested(a, b)))
+    programs = [nested, jac, jax.grad(loss, argnums=(0, 1))]
+    shapes = [s for f in programs for s in _lapack_batch_shapes(jax.make_jaxpr(f)(a, b).jaxpr)]
+    assert shapes and all(s == (n, n) for s in shapes), shapes
+    grad_b = jax.grad(loss, argnums=1)(jnp.asarray(a), jnp.asarray(b))
+    direction = rng.normal(size=b.shape)
+    _, forward = jax.jvp(lambda b: loss(jnp.asarray(a), b), (jnp.asarray(b),), (jnp.asarray(direction),))
+    assert float(jnp.sum(grad_b * direction)) == pytest.approx(float(forward), rel=1e-12)
 
 
 @pytest.mark.parametrize("name", sorted(__import__("jaxwalk.models", fromlist=["MODELS"]).MODELS))

@@ -198,7 +198,7 @@ class FlatFootWalker(Walker):
         sigma = jax.jacfwd(ph.constraints)(q, params, ctx)[jnp.array(_SECTION_ROWS)]
         lhs = jnp.concatenate([sigma, jnp.eye(6, dtype=v.dtype)[geo.THIGH_1][None]], axis=0)
         rhs = jnp.zeros(6, v.dtype).at[-1].set(psi_dot)
-        qd = mechanics.solve(lhs, rhs)  # no LAPACK inside sweeps (mechanics.solve)
+        qd = mechanics.solve(lhs, rhs)  # order 6: the unrolled elimination (mechanics.solve)
         y = jnp.concatenate([q, qd])
         t0 = jnp.zeros((), v.dtype)
         # A toe that would pull leaves at once, a knee that would pull flexes at

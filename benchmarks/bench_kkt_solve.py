@@ -1,0 +1,115 @@
+"""Benchmark: the KKT solve of the kneed and flat-foot walkers, LAPACK one matrix
+per call (today's :func:`jaxwalk.mechanics.solve`) against the pivoted elimination
+in a ``fori_loop`` it replaced, in one process.
+
+Per walker and batch size, ``jit(vmap(...))`` on one CPU device, compile
+(``lower().compile()``, trace included) apart, best of ``--repeat`` runs:
+
+* ``step``: one step map from the model's stored initial guess;
+* ``gait``: the gait search (:func:`jaxwalk.gait.find_gait`: Newton, forward-mode
+  Jacobian, eigenvalues).
+
+The flat-foot walker runs the paper's walker with ``r`` spread over [0.39, 0.41],
+the kneed walker its defaults with ``gamma`` spread by 1 %. Both forms must give
+the same gaits: the largest difference of fixed point and ``lambda_max`` is
+reported. Caches off (``JAXWALK_CACHE_DIR=``), so both forms really compile.
+
+    JAXWALK_CACHE_DIR= PYTHONPATH=. python benchmarks/bench_kkt_solve.py [--models flatfoot kneed] [--batches 1 64]
+
+Writes ``benchmarks/results/kkt_solve.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+import jaxwalk  # noqa: E402,F401  (before jax: the device-count flag)
+import jax  # noqa: E402
+import jax.numpy as jnp  # noqa: E402
+
+from _record import time_compiled, write_stamped  # noqa: E402
+from _walkers import benchmark_params  # noqa: E402
+from jaxwalk import mechanics  # noqa: E402
+from jaxwalk.gait import find_gait  # noqa: E402
+from jaxwalk.models import get_model  # noqa: E402
+from jaxwalk.step import step_map  # noqa: E402
+
+LAPACK_SOLVE = mechanics.solve
+SPREAD = {"flatfoot": ("r", 0.39, 0.41), "kneed": ("gamma", 0.99, 1.01)}
+
+
+def looped_solve(a, b):
+    """The solve before: unrolled up to order 8, the looped elimination above."""
+    if a.shape[0] <= mechanics.UNROLLED_SOLVE_MAX:
+        return mechanics._unrolled_solve(a, b)
+    return mechanics._looped_solve(a, b)
+
+
+def batch(model, n: int) -> tuple[dict, jax.Array]:
+    """``(params, v0)`` of ``n`` configurations around the benchmark walker."""
+    base = benchmark_params(model)
+    name, lo, hi = SPREAD[model.name]
+    params = {k: jnp.full((n,), v, jnp.float64) for k, v in base.items()}
+    if name == "r":
+        params[name] = jnp.linspace(lo, hi, n)
+    else:
+        params[name] = base[name] * jnp.linspace(lo, hi, n)
+    v0 = jnp.broadcast_to(model.initial_guess(base), (n, len(model.section_names)))
+    return params, v0
+
+
+def programs(model):
+    step = jax.jit(jax.vmap(lambda a: step_map(model, a[1], a[0])[0]))
+    gait = jax.jit(jax.vmap(lambda a: find_gait(model, a[0], a[1])))
+    return {"step": step, "gait": gait}
+
+
+def measure(model, form: str, n: int, repeat: int) -> dict:
+    mechanics.solve = LAPACK_SOLVE if form == "lapack" else looped_solve
+    jax.clear_caches()  # every jitted function below the programs traces again with this solve
+    args = batch(model, n)
+    out = {}
+    for name, program in programs(model).items():
+        compile_s, run_s, result = time_compiled(program, args, repeat)
+        values = result if name == "step" else (result.v, result.lambda_max)
+        out[name] = {"compile_s": compile_s, "ms_per_config": 1e3 * run_s / n,
+                     "values": [np.asarray(v).tolist() for v in jax.tree_util.tree_leaves(values)]}
+        print(f"{model.name:8s} {form:6s} batch {n:4d} {name}: compile {compile_s:5.1f} s, "
+              f"{1e3 * run_s / n:7.2f} ms per config", flush=True)
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--models", nargs="+", default=["flatfoot", "kneed"])
+    ap.add_argument("--batches", nargs="+", type=int, default=[1, 64])
+    ap.add_argument("--repeat", type=int, default=3)
+    args = ap.parse_args()
+    rows = []
+    for name in args.models:
+        model = get_model(name)
+        for n in args.batches:
+            forms = {form: measure(model, form, n, args.repeat) for form in ("looped", "lapack")}
+            for program in ("step", "gait"):
+                before, after = forms["looped"][program], forms["lapack"][program]
+                diff = max(float(np.nanmax(np.abs(np.asarray(a) - np.asarray(b))))
+                           for a, b in zip(before["values"], after["values"]))
+                row = {"model": name, "batch": n, "program": program,
+                       "looped": {k: v for k, v in before.items() if k != "values"},
+                       "lapack": {k: v for k, v in after.items() if k != "values"},
+                       "speedup": before["ms_per_config"] / after["ms_per_config"], "largest_difference": diff}
+                rows.append(row)
+                print(f"{name:8s} batch {n:4d} {program}: {row['speedup']:.2f}x, values differ by {diff:.1e}", flush=True)
+    mechanics.solve = LAPACK_SOLVE
+    write_stamped("kkt_solve", {"rows": rows, "command": " ".join(sys.argv)})
+
+
+if __name__ == "__main__":
+    main()
