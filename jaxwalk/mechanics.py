@@ -396,7 +396,7 @@ def _lapack_one_batched(axis_size, in_batched, a, b):
         x = _lapack_one(a, columns.reshape(columns.shape[0], -1)).reshape(columns.shape)
         return jnp.moveaxis(x, -1, 0), True
     if jax.default_backend() != "cpu":
-        return jnp.linalg.solve(a, b), True
+        return jax.vmap(jnp.linalg.solve)(a, b), True
     if axis_size == 1:
         return _lapack_one(a[0], b[0])[None], True
     return jax.lax.map(lambda ab: _lapack_one(*ab), (a, b)), True

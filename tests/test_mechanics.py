@@ -164,6 +164,22 @@ def test_a_batch_of_kkt_solves_never_hands_lapack_more_than_one_matrix(batch):
     assert float(jnp.sum(grad_b * direction)) == pytest.approx(float(forward), rel=1e-12)
 
 
+def test_a_batch_of_kkt_solves_on_another_backend_is_one_batched_call(monkeypatch):
+    """Off the CPU (no intra-op pool to wait on) a batch is one batched LAPACK-style
+    call; it gives the same solutions, also with matrix right-hand sides (``jacfwd``)."""
+    monkeypatch.setattr(jax, "default_backend", lambda: "gpu")
+    rng = np.random.default_rng(7)
+    n, batch = 15, 15  # batch == n: a vector right-hand side must not be read as a matrix
+    a = rng.normal(size=(batch, n, n)) + 4 * np.eye(n)
+    b = rng.normal(size=(batch, n))
+    jaxpr = jax.make_jaxpr(jax.vmap(mechanics.solve))(a, b).jaxpr
+    shapes = _lapack_batch_shapes(jaxpr)  # the solve's and its transpose's
+    assert shapes and all(s == (batch, n, n) for s in shapes), shapes
+    np.testing.assert_allclose(np.asarray(jax.vmap(mechanics.solve)(a, b)), np.linalg.solve(a, b[..., None])[..., 0], rtol=1e-10, atol=1e-12)
+    jac = jax.vmap(jax.jacfwd(mechanics.solve, argnums=1))(a, b)
+    np.testing.assert_allclose(np.asarray(jac), np.linalg.inv(a), rtol=1e-10, atol=1e-12)
+
+
 @pytest.mark.parametrize("name", sorted(__import__("jaxwalk.models", fromlist=["MODELS"]).MODELS))
 def test_entrywise_and_stacked_dynamics_agree(name, monkeypatch):
     """Both forms of the dynamics (``mechanics.ENTRYWISE_MAX``) give every walker the
