@@ -343,7 +343,7 @@ def _unrolled_solve_jvp(primals, tangents):
         lambda v: a @ v,
         jnp.stack(r),
         solve=lambda _, rhs: _apply_factors(factors, rhs),
-        transpose_solve=lambda _, rhs: jnp.linalg.solve(a.T, rhs),
+        transpose_solve=lambda _, rhs: _lapack_one(a.T, rhs),
     )
     return x, dx
 
@@ -352,11 +352,11 @@ def solve(a: Float[Array, "n n"], b: Float[Array, "n"]) -> Float[Array, "n"]:
     """``a^-1 b`` for a square ``a`` and a vector ``b``, with partial pivoting.
 
     Orders up to :data:`UNROLLED_SOLVE_MAX` use the unrolled elimination (forward
-    and reverse differentiable; reverse mode solves with ``a^T`` by LAPACK);
+    and reverse differentiable; reverse mode solves with ``a^T`` by :func:`_lapack_one`);
     larger ones (the kneed and flat-foot walkers' KKT systems, 12 and 15, whose
-    masks change with the phase) LAPACK's ``getrf``/``getrs``, one matrix per
-    call (:func:`_lapack_one`), differentiated as a linear solve (tangents and
-    cotangents solve with the same matrix or its transpose).
+    masks change with the phase) LAPACK (an LU factorisation and two triangular
+    solves), one matrix per call (:func:`_lapack_one`), differentiated as a linear
+    solve (tangents and cotangents solve with the same matrix or its transpose).
     """
     if a.shape[0] <= UNROLLED_SOLVE_MAX:
         return _unrolled_solve(a, b)
@@ -375,9 +375,11 @@ def solve(a: Float[Array, "n n"], b: Float[Array, "n"]) -> Float[Array, "n"]:
 # becomes a ``lax.map`` of single calls, and an enclosing ``vmap`` batches that
 # map's body, which calls this function again. A single matrix with a batch of
 # right-hand sides (the tangents of ``jacfwd``) is one call with a matrix
-# right-hand side. Measured on the flat-foot step map, this ran 1.3-1.8x faster
-# than the pivoted elimination in a ``fori_loop`` it replaced, at every batch from
-# 1 to 256. Other backends have no such pool; there a batch is one batched call.
+# right-hand side. Measured against the pivoted elimination in a ``fori_loop`` it
+# replaced (benchmarks/README.md): the paper's flat-foot step map 4.3x faster at
+# batch 1 and 1.5x at 64, its gait search 2.1x and 1.7x; the kneed walker's gait
+# search 3.6x and 1.8x. Other backends have no such pool; there a batch is one
+# batched call (not yet run on a GPU).
 
 
 @custom_vmap
@@ -388,18 +390,30 @@ def _lapack_one(a: Array, b: Array) -> Array:
 
 @_lapack_one.def_vmap
 def _lapack_one_batched(axis_size, in_batched, a, b):
+    """:func:`_lapack_one` of a batch: one call with a matrix right-hand side where
+    ``a`` is shared, else :func:`_one_at_a_time` on the CPU and :func:`_batched`
+    elsewhere (chosen when the program is lowered for its platform)."""
     a_batched, b_batched = in_batched
     if not b_batched:
         b = jnp.broadcast_to(b, (axis_size,) + b.shape)
     if not a_batched:
-        columns = jnp.moveaxis(b, 0, -1)  # (n, [k,] batch)
-        x = _lapack_one(a, columns.reshape(columns.shape[0], -1)).reshape(columns.shape)
+        rhs = jnp.moveaxis(b, 0, -1)  # (n, [k,] batch)
+        x = _lapack_one(a, rhs.reshape(rhs.shape[0], -1)).reshape(rhs.shape)
         return jnp.moveaxis(x, -1, 0), True
-    if jax.default_backend() != "cpu":
-        return jax.vmap(jnp.linalg.solve)(a, b), True
-    if axis_size == 1:
-        return _lapack_one(a[0], b[0])[None], True
-    return jax.lax.map(lambda ab: _lapack_one(*ab), (a, b)), True
+    return jax.lax.platform_dependent(a, b, cpu=_one_at_a_time, default=_batched), True
+
+
+def _one_at_a_time(a: Array, b: Array) -> Array:
+    """``a[i]^-1 b[i]`` for a batch, one LAPACK call per matrix (``lax.map``)."""
+    if a.shape[0] == 1:
+        return _lapack_one(a[0], b[0])[None]
+    return jax.lax.map(lambda ab: _lapack_one(*ab), (a, b))
+
+
+def _batched(a: Array, b: Array) -> Array:
+    """``a[i]^-1 b[i]`` for a batch by one batched call (backends without the CPU's
+    intra-op pool; not yet run on one)."""
+    return jax.vmap(jnp.linalg.solve)(a, b)
 
 
 def _looped_solve(a: Array, b: Array) -> Array:

@@ -5,15 +5,17 @@ through the heel-strike impact, computed from the point masses directly
 (positions and velocities), not from the mass matrix the engine uses.
 """
 
+import re
+
 import diffrax
 import jax
-import jax.extend
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
 from jaxwalk import mechanics
 from jaxwalk.models import get_model
+from jaxwalk.step import step_map
 
 MODEL = get_model("compass")
 PARAMS = MODEL.default_params()
@@ -129,24 +131,25 @@ def test_solve_matches_numpy_and_its_derivative_matches_differences(n):
         np.testing.assert_allclose(batch[i], np.linalg.solve(batch_a[i], b), rtol=1e-10, atol=1e-12)
 
 
-def _lapack_batch_shapes(jaxpr) -> list[tuple]:
-    """Operand shapes of every LU factorisation in ``jaxpr`` and its sub-jaxprs."""
-    shapes = []
-    for eqn in jaxpr.eqns:
-        if eqn.primitive.name == "lu":
-            shapes.append(tuple(eqn.invars[0].aval.shape))
-        for sub in jax.extend.core.jaxprs_in_params(eqn.params):
-            shapes += _lapack_batch_shapes(sub)
-    return shapes
+#: A LAPACK call in a lowered CPU program: its target and its first operand's type.
+LAPACK_CALL = re.compile(r"custom_call @(lapack_\w+)\(.*?:\s*\(tensor<([0-9x]+)x?f64>")
+
+
+def _lapack_operand_shapes(program, *args) -> list[tuple]:
+    """``(target, first operand shape)`` of every LAPACK call in ``jit(program)``
+    lowered for the CPU (every function of the module: loops, branches, jits).
+    Each of jaxlib's kernels may split a batch over XLA's intra-op pool."""
+    text = jax.jit(program).lower(*args).as_text()
+    return [(m.group(1), tuple(int(d) for d in m.group(2).split("x") if d)) for m in LAPACK_CALL.finditer(text)]
 
 
 @pytest.mark.parametrize("batch", [1, 5, 70])
 def test_a_batch_of_kkt_solves_never_hands_lapack_more_than_one_matrix(batch):
     """jaxlib splits a batched LAPACK call over XLA's intra-op pool and waits on the
     calling thread, which deadlocked two programs running at once (mechanics.py,
-    above ``_lapack_one``). Every LU in a batched, nested and differentiated solve
-    of order 15 factors one matrix; the results equal NumPy's, and reverse mode
-    equals forward mode."""
+    above ``_lapack_one``). Every LAPACK call in a batched, nested and differentiated
+    solve of order 15, and in reverse mode of one of order 6, takes one matrix; the
+    results equal NumPy's, and reverse mode equals forward mode."""
     rng = np.random.default_rng(batch)
     n = 15
     a = rng.normal(size=(2, batch, n, n)) + 4 * np.eye(n)
@@ -155,29 +158,40 @@ def test_a_batch_of_kkt_solves_never_hands_lapack_more_than_one_matrix(batch):
     np.testing.assert_allclose(np.asarray(jax.jit(nested)(a, b)), np.linalg.solve(a, b[..., None])[..., 0], rtol=1e-10, atol=1e-12)
     jac = jax.vmap(jax.vmap(jax.jacfwd(mechanics.solve)))
     loss = lambda a, b: jnp.sum(jnp.sin(nested(a, b)))
-    programs = [nested, jac, jax.grad(loss, argnums=(0, 1))]
-    shapes = [s for f in programs for s in _lapack_batch_shapes(jax.make_jaxpr(f)(a, b).jaxpr)]
-    assert shapes and all(s == (n, n) for s in shapes), shapes
+    small = lambda a, b: jnp.sum(jnp.sin(nested(a[..., :6, :6], b[..., :6])))  # the unrolled solve's reverse mode
+    programs = [nested, jac, jax.grad(loss, argnums=(0, 1)), jax.grad(small, argnums=(0, 1))]
+    shapes = [s for f in programs for s in _lapack_operand_shapes(f, a, b)]
+    assert {name for name, _ in shapes} == {"lapack_dgetrf_ffi", "lapack_dtrsm_ffi"}
+    assert all(len(shape) == 2 for _, shape in shapes), shapes
     grad_b = jax.grad(loss, argnums=1)(jnp.asarray(a), jnp.asarray(b))
     direction = rng.normal(size=b.shape)
     _, forward = jax.jvp(lambda b: loss(jnp.asarray(a), b), (jnp.asarray(b),), (jnp.asarray(direction),))
     assert float(jnp.sum(grad_b * direction)) == pytest.approx(float(forward), rel=1e-12)
 
 
-def test_a_batch_of_kkt_solves_on_another_backend_is_one_batched_call(monkeypatch):
-    """Off the CPU (no intra-op pool to wait on) a batch is one batched LAPACK-style
-    call; it gives the same solutions, also with matrix right-hand sides (``jacfwd``)."""
-    monkeypatch.setattr(jax, "default_backend", lambda: "gpu")
+def test_a_batched_step_map_of_the_kneed_walker_hands_lapack_one_matrix_at_a_time():
+    """The property above for a whole program as sweeps run it: every LAPACK call in
+    the loops of a vmapped step map (the KKT solves of its vector field, guards and
+    start) takes one matrix."""
+    model = get_model("kneed")
+    params = {k: jnp.full((3,), v) for k, v in model.default_params().items()}
+    v = jnp.broadcast_to(model.initial_guess(model.default_params()), (3, len(model.section_names)))
+    shapes = _lapack_operand_shapes(jax.vmap(lambda p, v: step_map(model, v, p)[0]), params, v)
+    assert shapes and all(len(shape) == 2 for _, shape in shapes), shapes
+
+
+def test_a_batch_of_kkt_solves_off_the_cpu_is_one_batched_call():
+    """The branch for backends without the CPU's intra-op pool (chosen when a
+    program is lowered for its platform; called here on the CPU): the same solutions,
+    also where the batch equals the order (a vector right-hand side must not be
+    read as a matrix) and with matrix right-hand sides."""
     rng = np.random.default_rng(7)
-    n, batch = 15, 15  # batch == n: a vector right-hand side must not be read as a matrix
+    n = batch = 15
     a = rng.normal(size=(batch, n, n)) + 4 * np.eye(n)
     b = rng.normal(size=(batch, n))
-    jaxpr = jax.make_jaxpr(jax.vmap(mechanics.solve))(a, b).jaxpr
-    shapes = _lapack_batch_shapes(jaxpr)  # the solve's and its transpose's
-    assert shapes and all(s == (batch, n, n) for s in shapes), shapes
-    np.testing.assert_allclose(np.asarray(jax.vmap(mechanics.solve)(a, b)), np.linalg.solve(a, b[..., None])[..., 0], rtol=1e-10, atol=1e-12)
-    jac = jax.vmap(jax.jacfwd(mechanics.solve, argnums=1))(a, b)
-    np.testing.assert_allclose(np.asarray(jac), np.linalg.inv(a), rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(np.asarray(mechanics._batched(a, b)), np.linalg.solve(a, b[..., None])[..., 0], rtol=1e-10, atol=1e-12)
+    rhs = rng.normal(size=(batch, n, 3))
+    np.testing.assert_allclose(np.asarray(mechanics._batched(a, rhs)), np.linalg.solve(a, rhs), rtol=1e-10, atol=1e-12)
 
 
 @pytest.mark.parametrize("name", sorted(__import__("jaxwalk.models", fromlist=["MODELS"]).MODELS))

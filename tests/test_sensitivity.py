@@ -165,8 +165,8 @@ def test_simplest_optimum_confirmed_by_a_fine_grid():
 )
 def test_flatfoot_lambda_max_fixed_point_and_cost_of_transport():
     """The paper's flat-foot walker: d/dr of lambda_max, v* and the cost of
-    transport against central differences of converged gaits (one device:
-    batched LAPACK from two device threads has deadlocked for this walker).
+    transport against central differences of converged gaits (one device, the
+    setting this check was first measured in).
 
     The step h = 1e-3 is where central differences of the converged gaits settle
     (2026-12-02, r = 0.4: d CoT/dr 1.035403e-4, 1.034942e-4, 1.034934e-4,

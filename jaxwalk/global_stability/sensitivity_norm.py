@@ -20,8 +20,8 @@ The sum is the observability Gramian ``W = sum_k (J^T)^k C^T C J^k``, the
 solution of the discrete Lyapunov equation ``W = J^T W J + C^T C``, solved by
 Smith's doubling (``W <- W + A^T W A``, ``A <- A^2``): after ``n`` doublings it
 holds the first ``2^n`` terms exactly, so 48 of them leave an error of order
-``lambda_max^(2^48)``. It uses only matrix products (no LAPACK call: see
-``jaxwalk.mechanics.solve``), is forward-differentiable, and unlike a truncated
+``lambda_max^(2^48)``. It uses only matrix products (no LAPACK call, so no
+batched one either: see ``jaxwalk.mechanics.solve``), is forward-differentiable, and unlike a truncated
 impulse response does not need a horizon chosen by hand: this project's step
 maps are strongly non-normal (``||J^k|| > 1`` for several steps) and near the
 loss of stability ``lambda_max -> 1`` needs ``>> 1/(1 - lambda_max)`` terms.
