@@ -1,9 +1,16 @@
-"""Benchmark: the KKT solve of the kneed and flat-foot walkers, LAPACK one matrix
-per call (today's :func:`jaxwalk.mechanics.solve`) against the pivoted elimination
-in a ``fori_loop`` it replaced, in one process.
+"""Benchmark: two forms of the KKT solve of the kneed and flat-foot walkers, in one
+process. The forms (``--compare BASELINE NEW``):
+
+* ``looped``: the pivoted elimination in a ``fori_loop`` (to 2026-12-06);
+* ``gesv``: LAPACK one matrix per call, a whole solve (factor and substitute) per
+  use, so under ``jacfwd`` the matrix is factored for the primal and again for the
+  tangents (session 42);
+* ``factored``: today's :func:`jaxwalk.mechanics.solve`, LAPACK one matrix per
+  call, the matrix factored once for the primal, its tangents and cotangents.
 
 Per walker and batch size, ``jit(vmap(...))`` on one CPU device, compile
-(``lower().compile()``, trace included) apart, best of ``--repeat`` runs:
+(``lower().compile()``, trace included) apart; both forms compiled first, then run
+in turn (A B A B ...) and the best of ``--repeat`` runs of each kept:
 
 * ``step``: one step map from the model's stored initial guess;
 * ``gait``: the gait search (:func:`jaxwalk.gait.find_gait`: Newton, forward-mode
@@ -14,9 +21,9 @@ the kneed walker its defaults with ``gamma`` spread by 1 %. Both forms must give
 the same gaits: the largest difference of fixed point and ``lambda_max`` is
 reported. Caches off (``JAXWALK_CACHE_DIR=``), so both forms really compile.
 
-    JAXWALK_CACHE_DIR= PYTHONPATH=. python benchmarks/bench_kkt_solve.py [--models flatfoot kneed] [--batches 1 64]
+    JAXWALK_CACHE_DIR= PYTHONPATH=. python benchmarks/bench_kkt_solve.py [--compare gesv factored] [--models flatfoot kneed] [--batches 1 64]
 
-Writes ``benchmarks/results/kkt_solve.json``.
+Writes ``benchmarks/results/kkt_solve_<BASELINE>_<NEW>.json``.
 """
 
 from __future__ import annotations
@@ -24,6 +31,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import time
 
 import numpy as np
 
@@ -34,14 +42,14 @@ import jaxwalk  # noqa: E402,F401  (before jax: the device-count flag)
 import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 
-from _record import time_compiled, write_stamped  # noqa: E402
+from _record import write_stamped  # noqa: E402
 from _walkers import benchmark_params  # noqa: E402
 from jaxwalk import mechanics  # noqa: E402
 from jaxwalk.gait import find_gait  # noqa: E402
 from jaxwalk.models import get_model  # noqa: E402
 from jaxwalk.step import step_map  # noqa: E402
 
-LAPACK_SOLVE = mechanics.solve
+FACTORED_SOLVE = mechanics.solve
 SPREAD = {"flatfoot": ("r", 0.39, 0.41), "kneed": ("gamma", 0.99, 1.01)}
 
 
@@ -50,6 +58,20 @@ def looped_solve(a, b):
     if a.shape[0] <= mechanics.UNROLLED_SOLVE_MAX:
         return mechanics._unrolled_solve(a, b)
     return mechanics._looped_solve(a, b)
+
+
+def gesv_solve(a, b):
+    """Session 42's solve: LAPACK one matrix per call, the matrix factored at every
+    use (there ``jnp.linalg.solve`` per call: the same getrf and two trsm)."""
+    if a.shape[0] <= mechanics.UNROLLED_SOLVE_MAX:
+        return mechanics._unrolled_solve(a, b)
+    fixed = jax.lax.stop_gradient(a)
+    return jax.lax.custom_linear_solve(
+        lambda v: a @ v, b, solve=lambda _, r: mechanics._lu_solve_one(*mechanics._lu_one(fixed), r),
+        transpose_solve=lambda _, r: mechanics._lu_solve_one_transposed(*mechanics._lu_one(fixed), r))
+
+
+FORMS = {"looped": looped_solve, "gesv": gesv_solve, "factored": FACTORED_SOLVE}
 
 
 def batch(model, n: int) -> tuple[dict, jax.Array]:
@@ -71,18 +93,37 @@ def programs(model):
     return {"step": step, "gait": gait}
 
 
-def measure(model, form: str, n: int, repeat: int) -> dict:
-    mechanics.solve = LAPACK_SOLVE if form == "lapack" else looped_solve
+def compile_form(model, form: str, n: int) -> dict:
+    """``{program: (compiled, compile_s)}`` with ``form`` as the solve; ``args`` of batch ``n``."""
+    mechanics.solve = FORMS[form]
     jax.clear_caches()  # every jitted function below the programs traces again with this solve
     args = batch(model, n)
     out = {}
     for name, program in programs(model).items():
-        compile_s, run_s, result = time_compiled(program, args, repeat)
-        values = result if name == "step" else (result.v, result.lambda_max)
-        out[name] = {"compile_s": compile_s, "ms_per_config": 1e3 * run_s / n,
-                     "values": [np.asarray(v).tolist() for v in jax.tree_util.tree_leaves(values)]}
-        print(f"{model.name:8s} {form:6s} batch {n:4d} {name}: compile {compile_s:5.1f} s, "
-              f"{1e3 * run_s / n:7.2f} ms per config", flush=True)
+        t0 = time.perf_counter()
+        out[name] = (program.lower(args).compile(), time.perf_counter() - t0)
+    return out
+
+
+def measure(model, forms: tuple[str, str], n: int, repeat: int) -> dict:
+    """Both forms' programs compiled, then run in turn ``repeat`` times each (A B A B ...),
+    so that a change in the machine's speed meets both alike; the best run of each kept."""
+    compiled = {form: compile_form(model, form, n) for form in forms}
+    args = batch(model, n)
+    out = {form: {} for form in forms}
+    for name in ("step", "gait"):
+        best = {form: np.inf for form in forms}
+        for _ in range(repeat):
+            for form in forms:
+                t0 = time.perf_counter()
+                result = jax.block_until_ready(compiled[form][name][0](args))
+                best[form] = min(best[form], time.perf_counter() - t0)
+                values = result if name == "step" else (result.v, result.lambda_max)
+                out[form][name] = {"compile_s": compiled[form][name][1], "ms_per_config": 1e3 * best[form] / n,
+                                   "values": [np.asarray(v).tolist() for v in jax.tree_util.tree_leaves(values)]}
+        for form in forms:
+            print(f"{model.name:8s} {form:8s} batch {n:4d} {name}: compile {compiled[form][name][1]:5.1f} s, "
+                  f"{out[form][name]['ms_per_config']:7.2f} ms per config", flush=True)
     return out
 
 
@@ -91,24 +132,27 @@ def main() -> None:
     ap.add_argument("--models", nargs="+", default=["flatfoot", "kneed"])
     ap.add_argument("--batches", nargs="+", type=int, default=[1, 64])
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--compare", nargs=2, choices=sorted(FORMS), default=["gesv", "factored"],
+                    metavar=("BASELINE", "NEW"))
     args = ap.parse_args()
+    base, new = args.compare
     rows = []
     for name in args.models:
         model = get_model(name)
         for n in args.batches:
-            forms = {form: measure(model, form, n, args.repeat) for form in ("looped", "lapack")}
+            forms = measure(model, (base, new), n, args.repeat)
             for program in ("step", "gait"):
-                before, after = forms["looped"][program], forms["lapack"][program]
+                before, after = forms[base][program], forms[new][program]
                 diff = max(float(np.nanmax(np.abs(np.asarray(a) - np.asarray(b))))
                            for a, b in zip(before["values"], after["values"]))
                 row = {"model": name, "batch": n, "program": program,
-                       "looped": {k: v for k, v in before.items() if k != "values"},
-                       "lapack": {k: v for k, v in after.items() if k != "values"},
+                       base: {k: v for k, v in before.items() if k != "values"},
+                       new: {k: v for k, v in after.items() if k != "values"},
                        "speedup": before["ms_per_config"] / after["ms_per_config"], "largest_difference": diff}
                 rows.append(row)
                 print(f"{name:8s} batch {n:4d} {program}: {row['speedup']:.2f}x, values differ by {diff:.1e}", flush=True)
-    mechanics.solve = LAPACK_SOLVE
-    write_stamped("kkt_solve", {"rows": rows, "command": " ".join(sys.argv)})
+    mechanics.solve = FACTORED_SOLVE
+    write_stamped(f"kkt_solve_{base}_{new}", {"rows": rows, "command": " ".join(sys.argv)})
 
 
 if __name__ == "__main__":
