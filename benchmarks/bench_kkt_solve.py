@@ -2,11 +2,12 @@
 process. The forms (``--compare BASELINE NEW``):
 
 * ``looped``: the pivoted elimination in a ``fori_loop`` (to 2026-12-06);
-* ``gesv``: LAPACK one matrix per call, a whole solve (factor and substitute) per
-  use, so under ``jacfwd`` the matrix is factored for the primal and again for the
-  tangents (session 42);
-* ``factored``: today's :func:`jaxwalk.mechanics.solve`, LAPACK one matrix per
-  call, the matrix factored once for the primal, its tangents and cotangents.
+* ``gesv``: today's :func:`jaxwalk.mechanics.solve`, LAPACK one matrix per call, a
+  whole solve (factor and substitute) per use.
+
+(A third form, the matrix factored once for the primal, its tangents and
+cotangents, was measured against ``gesv`` at commit d925c2b, where this script
+has it as ``factored``: no faster, so it was not kept; benchmarks/README.md.)
 
 Per walker and batch size, ``jit(vmap(...))`` on one CPU device, compile
 (``lower().compile()``, trace included) apart; both forms compiled first, then run
@@ -21,7 +22,7 @@ the kneed walker its defaults with ``gamma`` spread by 1 %. Both forms must give
 the same gaits: the largest difference of fixed point and ``lambda_max`` is
 reported. Caches off (``JAXWALK_CACHE_DIR=``), so both forms really compile.
 
-    JAXWALK_CACHE_DIR= PYTHONPATH=. python benchmarks/bench_kkt_solve.py [--compare gesv factored] [--models flatfoot kneed] [--batches 1 64]
+    JAXWALK_CACHE_DIR= PYTHONPATH=. python benchmarks/bench_kkt_solve.py [--compare looped gesv] [--models flatfoot kneed] [--batches 1 64]
 
 Writes ``benchmarks/results/kkt_solve_<BASELINE>_<NEW>.json``.
 """
@@ -49,7 +50,7 @@ from jaxwalk.gait import find_gait  # noqa: E402
 from jaxwalk.models import get_model  # noqa: E402
 from jaxwalk.step import step_map  # noqa: E402
 
-FACTORED_SOLVE = mechanics.solve
+LAPACK_SOLVE = mechanics.solve
 SPREAD = {"flatfoot": ("r", 0.39, 0.41), "kneed": ("gamma", 0.99, 1.01)}
 
 
@@ -60,18 +61,7 @@ def looped_solve(a, b):
     return mechanics._looped_solve(a, b)
 
 
-def gesv_solve(a, b):
-    """Session 42's solve: LAPACK one matrix per call, the matrix factored at every
-    use (there ``jnp.linalg.solve`` per call: the same getrf and two trsm)."""
-    if a.shape[0] <= mechanics.UNROLLED_SOLVE_MAX:
-        return mechanics._unrolled_solve(a, b)
-    fixed = jax.lax.stop_gradient(a)
-    return jax.lax.custom_linear_solve(
-        lambda v: a @ v, b, solve=lambda _, r: mechanics._lu_solve_one(*mechanics._lu_one(fixed), r),
-        transpose_solve=lambda _, r: mechanics._lu_solve_one_transposed(*mechanics._lu_one(fixed), r))
-
-
-FORMS = {"looped": looped_solve, "gesv": gesv_solve, "factored": FACTORED_SOLVE}
+FORMS = {"looped": looped_solve, "gesv": LAPACK_SOLVE}
 
 
 def batch(model, n: int) -> tuple[dict, jax.Array]:
@@ -132,7 +122,7 @@ def main() -> None:
     ap.add_argument("--models", nargs="+", default=["flatfoot", "kneed"])
     ap.add_argument("--batches", nargs="+", type=int, default=[1, 64])
     ap.add_argument("--repeat", type=int, default=3)
-    ap.add_argument("--compare", nargs=2, choices=sorted(FORMS), default=["gesv", "factored"],
+    ap.add_argument("--compare", nargs=2, choices=sorted(FORMS), default=["looped", "gesv"],
                     metavar=("BASELINE", "NEW"))
     args = ap.parse_args()
     base, new = args.compare
@@ -151,7 +141,7 @@ def main() -> None:
                        "speedup": before["ms_per_config"] / after["ms_per_config"], "largest_difference": diff}
                 rows.append(row)
                 print(f"{name:8s} batch {n:4d} {program}: {row['speedup']:.2f}x, values differ by {diff:.1e}", flush=True)
-    mechanics.solve = FACTORED_SOLVE
+    mechanics.solve = LAPACK_SOLVE
     write_stamped(f"kkt_solve_{base}_{new}", {"rows": rows, "command": " ".join(sys.argv)})
 
 

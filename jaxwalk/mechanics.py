@@ -41,7 +41,7 @@ from jaxtyping import ArrayLike, Float
 Array = jax.Array
 
 #: Largest linear system (KKT matrix order) solved by the unrolled elimination
-#: below; larger ones by LAPACK one matrix at a time (:func:`_lu_one`).
+#: below; larger ones by LAPACK one matrix at a time (:func:`_lapack_one`).
 UNROLLED_SOLVE_MAX = 8
 
 
@@ -343,7 +343,7 @@ def _unrolled_solve_jvp(primals, tangents):
         lambda v: a @ v,
         jnp.stack(r),
         solve=lambda _, rhs: _apply_factors(factors, rhs),
-        transpose_solve=lambda _, rhs: _lu_solve_one_transposed(*_lu_one(jax.lax.stop_gradient(a)), rhs),
+        transpose_solve=lambda _, rhs: _lapack_one(a.T, rhs),
     )
     return x, dx
 
@@ -352,23 +352,16 @@ def solve(a: Float[Array, "n n"], b: Float[Array, "n"]) -> Float[Array, "n"]:
     """``a^-1 b`` for a square ``a`` and a vector ``b``, with partial pivoting.
 
     Orders up to :data:`UNROLLED_SOLVE_MAX` use the unrolled elimination (forward
-    and reverse differentiable; reverse mode solves with ``a^T`` by LAPACK);
+    and reverse differentiable; reverse mode solves with ``a^T`` by :func:`_lapack_one`);
     larger ones (the kneed and flat-foot walkers' KKT systems, 12 and 15, whose
-    masks change with the phase) LAPACK: ``a`` is factored once (:func:`_lu_one`)
-    and the factors solve for ``b``, for its tangents and, in reverse mode, for the
-    cotangents with ``a^T`` (:func:`_lu_solve_one`), one matrix per call. Under
-    ``jacfwd`` that is one factorisation where a solve per use would factor twice.
+    masks change with the phase) LAPACK (an LU factorisation and two triangular
+    solves), one matrix per call (:func:`_lapack_one`), differentiated as a linear
+    solve (tangents and cotangents solve with the same matrix or its transpose).
     """
     if a.shape[0] <= UNROLLED_SOLVE_MAX:
         return _unrolled_solve(a, b)
-    # The factors are constants of the linear solve: custom_linear_solve
-    # differentiates through ``a @ v`` alone, so they need no tangent.
-    lu, permutation = _lu_one(jax.lax.stop_gradient(a))
     return jax.lax.custom_linear_solve(
-        lambda v: a @ v,
-        b,
-        solve=lambda _, r: _lu_solve_one(lu, permutation, r),
-        transpose_solve=lambda _, r: _lu_solve_one_transposed(lu, permutation, r),
+        lambda v: a @ v, b, solve=lambda _, r: _lapack_one(a, r), transpose_solve=lambda _, r: _lapack_one(a.T, r)
     )
 
 
@@ -378,93 +371,50 @@ def solve(a: Float[Array, "n n"], b: Float[Array, "n"]) -> Float[Array, "n"]:
 # pool has threads (the sweep runs one per core), every pool thread can be such a
 # caller and nothing is left to run the pieces: both were seen asleep for good
 # (benchmarks/README.md, "The KKT solve by LAPACK"). A call of one matrix is never
-# split. Under ``vmap`` on the CPU the rules below keep it so: a batch of matrices
+# split. Under ``vmap`` on the CPU the rule below keeps it so: a batch of matrices
 # becomes a ``lax.map`` of single calls, and an enclosing ``vmap`` batches that
-# map's body, which calls these functions again. One set of factors with a batch
-# of right-hand sides (the tangents of ``jacfwd``) is one call with a matrix
-# right-hand side. The factorisation is its own call so that a solve's primal,
-# tangents and cotangents share it. Measured against the pivoted elimination in a
-# ``fori_loop`` that came before (benchmarks/README.md): the paper's flat-foot
-# step map 4.3x faster at batch 1 and 1.5x at 64, its gait search 2.1x and 1.7x;
-# the kneed walker's gait search 3.6x and 1.8x. Other backends have no such pool;
-# there a batch is one batched call (not yet run on a GPU).
+# map's body, which calls this function again. A single matrix with a batch of
+# right-hand sides (the tangents of ``jacfwd``) is one call with a matrix
+# right-hand side. Measured against the pivoted elimination in a ``fori_loop`` it
+# replaced (benchmarks/README.md, both forms timed in turn): the paper's flat-foot
+# step map 1.8x faster at batch 1 and 1.6x at 64, its gait search 3.0x and 1.8x;
+# the kneed walker's gait search 3.4x and 2.5x. Factoring each matrix once for its
+# solve and tangents gained nothing there (0.93-1.01x). Other backends have no
+# such pool; there a batch is one batched call (not yet run on a GPU).
 
 
 @custom_vmap
-def _lu_one(a: Array) -> tuple[Array, Array]:
-    """LU factors of ``a`` ``(n, n)`` by one LAPACK call: ``(lu, permutation)`` with
-    ``a[permutation] = L U`` (``L`` unit lower and ``U`` upper triangular, packed
-    in ``lu`` ``(n, n)``; ``permutation`` ``(n,)``)."""
-    lu, _, permutation = jax.lax.linalg.lu(a)
-    return lu, permutation
+def _lapack_one(a: Array, b: Array) -> Array:
+    """``a^-1 b`` by one LAPACK call: ``a`` ``(n, n)``, ``b`` ``(n,)`` or ``(n, k)``."""
+    return jnp.linalg.solve(a, b)
 
 
-@_lu_one.def_vmap
-def _lu_one_batched(axis_size, in_batched, a):
-    """:func:`_lu_one` of a batch ``(batch, n, n)``: one call per matrix on the CPU,
-    one batched call elsewhere (chosen when the program is lowered for its platform)."""
-    one_at_a_time = lambda a: _map_single(_lu_one, a)
-    return jax.lax.platform_dependent(a, cpu=one_at_a_time, default=_lu_batched), (True, True)
+@_lapack_one.def_vmap
+def _lapack_one_batched(axis_size, in_batched, a, b):
+    """:func:`_lapack_one` of a batch: one call with a matrix right-hand side where
+    ``a`` is shared, else :func:`_one_at_a_time` on the CPU and :func:`_batched`
+    elsewhere (chosen when the program is lowered for its platform)."""
+    a_batched, b_batched = in_batched
+    if not b_batched:
+        b = jnp.broadcast_to(b, (axis_size,) + b.shape)
+    if not a_batched:
+        rhs = jnp.moveaxis(b, 0, -1)  # (n, [k,] batch)
+        x = _lapack_one(a, rhs.reshape(rhs.shape[0], -1)).reshape(rhs.shape)
+        return jnp.moveaxis(x, -1, 0), True
+    return jax.lax.platform_dependent(a, b, cpu=_one_at_a_time, default=_batched), True
 
 
-def _lu_batched(a: Array) -> tuple[Array, Array]:
-    """:func:`_lu_one` of a batch by one batched call (backends without the CPU's pool)."""
-    lu, _, permutation = jax.lax.linalg.lu(a)
-    return lu, permutation
+def _one_at_a_time(a: Array, b: Array) -> Array:
+    """``a[i]^-1 b[i]`` for a batch, one LAPACK call per matrix (``lax.map``)."""
+    if a.shape[0] == 1:
+        return _lapack_one(a[0], b[0])[None]
+    return jax.lax.map(lambda ab: _lapack_one(*ab), (a, b))
 
 
-def _map_single(fn, *args):
-    """``fn`` over the leading axis of ``args``, one call per element (``lax.map``)."""
-    if args[0].shape[0] == 1:  # no loop for a batch of one
-        return jax.tree_util.tree_map(lambda x: x[None], fn(*(x[0] for x in args)))
-    return jax.lax.map(lambda xs: fn(*xs), args)
-
-
-def _apply_lu(lu: Array, permutation: Array, b: Array, transpose: bool) -> Array:
-    """``a^-1 b``, or ``a^-T b`` if ``transpose``, from :func:`_lu_one`'s factors:
-    two triangular solves and a permutation. ``b`` ``(n,)`` or ``(n, k)``; batch
-    axes in front of all three are one batched call per triangular solve."""
-    rhs = b if b.ndim == lu.ndim else b[..., None]
-    lower = dict(left_side=True, lower=True, unit_diagonal=True)
-    upper = dict(left_side=True, lower=False)
-    rows = jnp.broadcast_to(permutation[..., None], rhs.shape)
-    if transpose:  # a^T = U^T L^T P: solve with U^T, then L^T, then undo P
-        y = jax.lax.linalg.triangular_solve(lu, rhs, transpose_a=True, **upper)
-        y = jax.lax.linalg.triangular_solve(lu, y, transpose_a=True, **lower)
-        x = jnp.put_along_axis(jnp.zeros_like(y), rows, y, axis=-2, inplace=False)
-    else:
-        y = jax.lax.linalg.triangular_solve(lu, jnp.take_along_axis(rhs, rows, axis=-2), **lower)
-        x = jax.lax.linalg.triangular_solve(lu, y, **upper)
-    return x if b.ndim == lu.ndim else x[..., 0]
-
-
-def _lu_solver(transpose: bool):
-    """``solve(lu, permutation, b)``: :func:`_apply_lu` as one LAPACK call per matrix
-    under ``vmap`` (``custom_vmap``; see above)."""
-
-    @custom_vmap
-    def solve_one(lu: Array, permutation: Array, b: Array) -> Array:
-        return _apply_lu(lu, permutation, b, transpose)
-
-    @solve_one.def_vmap
-    def solve_batched(axis_size, in_batched, lu, permutation, b):
-        lu_batched, _, b_batched = in_batched
-        if not b_batched:
-            b = jnp.broadcast_to(b, (axis_size,) + b.shape)
-        if not lu_batched:  # shared factors (jacfwd's tangents): one matrix right-hand side
-            rhs = jnp.moveaxis(b, 0, -1)  # (n, [k,] batch)
-            x = solve_one(lu, permutation, rhs.reshape(rhs.shape[0], -1)).reshape(rhs.shape)
-            return jnp.moveaxis(x, -1, 0), True
-        permutation = jnp.broadcast_to(permutation, lu.shape[:2])
-        one_at_a_time = lambda lu, p, b: _map_single(solve_one, lu, p, b)
-        batched = lambda lu, p, b: _apply_lu(lu, p, b, transpose)
-        return jax.lax.platform_dependent(lu, permutation, b, cpu=one_at_a_time, default=batched), True
-
-    return solve_one
-
-
-_lu_solve_one = _lu_solver(transpose=False)
-_lu_solve_one_transposed = _lu_solver(transpose=True)
+def _batched(a: Array, b: Array) -> Array:
+    """``a[i]^-1 b[i]`` for a batch by one batched call (backends without the CPU's
+    intra-op pool; not yet run on one)."""
+    return jax.vmap(jnp.linalg.solve)(a, b)
 
 
 def _looped_solve(a: Array, b: Array) -> Array:
