@@ -3,7 +3,10 @@ process. The forms (``--compare BASELINE NEW``):
 
 * ``looped``: the pivoted elimination in a ``fori_loop`` (to 2026-12-06);
 * ``gesv``: today's :func:`jaxwalk.mechanics.solve`, LAPACK one matrix per call, a
-  whole solve (factor and substitute) per use.
+  whole solve (factor and substitute) per use, NaN for a singular matrix;
+* ``unchecked``: the same with ``jnp.linalg.solve`` as each LAPACK call's body (to
+  2026-12-06, session 43): no singularity check there (impacts' looped
+  elimination keeps its own).
 
 (A third form, the matrix factored once for the primal, its tangents and
 cotangents, was measured against ``gesv`` at commit d925c2b, where this script
@@ -61,7 +64,19 @@ def looped_solve(a, b):
     return mechanics._looped_solve(a, b)
 
 
-FORMS = {"looped": looped_solve, "gesv": LAPACK_SOLVE}
+FORMS = {"looped": looped_solve, "gesv": LAPACK_SOLVE, "unchecked": LAPACK_SOLVE}
+CHECKED_BODY = mechanics._solve_or_nan
+
+
+def install(form: str) -> None:
+    """Make ``form`` the solve every walker traces from now on."""
+    mechanics.solve = FORMS[form]
+    mechanics._solve_or_nan = unchecked_body if form == "unchecked" else CHECKED_BODY
+
+
+def unchecked_body(a, b):
+    """``jnp.linalg.solve`` with ``_solve_or_nan``'s shapes (a vector ``b`` per matrix)."""
+    return jnp.linalg.solve(a, b[..., None])[..., 0] if b.ndim == a.ndim - 1 else jnp.linalg.solve(a, b)
 
 
 def batch(model, n: int) -> tuple[dict, jax.Array]:
@@ -85,7 +100,7 @@ def programs(model):
 
 def compile_form(model, form: str, n: int) -> dict:
     """``{program: (compiled, compile_s)}`` with ``form`` as the solve; ``args`` of batch ``n``."""
-    mechanics.solve = FORMS[form]
+    install(form)
     jax.clear_caches()  # every jitted function below the programs traces again with this solve
     args = batch(model, n)
     out = {}
@@ -141,7 +156,7 @@ def main() -> None:
                        "speedup": before["ms_per_config"] / after["ms_per_config"], "largest_difference": diff}
                 rows.append(row)
                 print(f"{name:8s} batch {n:4d} {program}: {row['speedup']:.2f}x, values differ by {diff:.1e}", flush=True)
-    mechanics.solve = LAPACK_SOLVE
+    install("gesv")
     write_stamped(f"kkt_solve_{base}_{new}", {"rows": rows, "command": " ".join(sys.argv)})
 
 

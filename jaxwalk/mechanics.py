@@ -24,7 +24,9 @@ from the linear system; the solution is the same.
 Small linear systems (order 8 or less) are solved by an unrolled Gaussian
 elimination with partial pivoting (see :func:`solve`): on CPU under ``vmap`` it is
 several times cheaper than LAPACK called per batch element. Larger ones (the
-kneed and flat-foot walkers' KKT systems) by LAPACK, one matrix per call.
+kneed and flat-foot walkers' KKT systems) by LAPACK, one matrix per call, with NaN
+for a singular system (dependent active constraints) so that a step ends
+``nonfinite`` rather than carrying on with accelerations made of rounding.
 """
 
 from __future__ import annotations
@@ -356,7 +358,8 @@ def solve(a: Float[Array, "n n"], b: Float[Array, "n"]) -> Float[Array, "n"]:
     larger ones (the kneed and flat-foot walkers' KKT systems, 12 and 15, whose
     masks change with the phase) LAPACK (an LU factorisation and two triangular
     solves), one matrix per call (:func:`_lapack_one`), differentiated as a linear
-    solve (tangents and cotangents solve with the same matrix or its transpose).
+    solve (tangents and cotangents solve with the same matrix or its transpose);
+    NaN where ``a`` is singular (:data:`SINGULAR_PIVOT_RATIO`).
     """
     if a.shape[0] <= UNROLLED_SOLVE_MAX:
         return _unrolled_solve(a, b)
@@ -386,7 +389,48 @@ def solve(a: Float[Array, "n n"], b: Float[Array, "n"]) -> Float[Array, "n"]:
 @custom_vmap
 def _lapack_one(a: Array, b: Array) -> Array:
     """``a^-1 b`` by one LAPACK call: ``a`` ``(n, n)``, ``b`` ``(n,)`` or ``(n, k)``."""
-    return jnp.linalg.solve(a, b)
+    return _solve_or_nan(a, b)
+
+
+#: A linear system is taken as singular when its LU's smallest pivot is at most
+#: this fraction of the largest (partial pivoting). Dependent constraint rows give
+#: 1e-18..3e-14 (rounding, up to about 150 eps at orders 10-12); the walkers'
+#: KKT systems 3.6e-4 (kneed) and 1.7e-3 (flat-foot) at the least in a default
+#: step (``benchmarks/kkt_pivot_ratios.py``). Constraints dependent to within
+#: this fraction count as dependent: a solve would amplify rounding by about
+#: 1e10 or more.
+SINGULAR_PIVOT_RATIO = 1e-10
+
+
+def _singular(pivots: Array) -> Array:
+    """Whether the pivots ``(..., n)`` of an LU belong to a singular matrix ``(...)``."""
+    pivots = jnp.abs(pivots)
+    return jnp.min(pivots, axis=-1) <= SINGULAR_PIVOT_RATIO * jnp.max(pivots, axis=-1)
+
+
+def _solve_or_nan(a: Array, b: Array) -> Array:
+    """``a^-1 b`` by LU (LAPACK ``getrf`` and two ``trsm``), NaN where ``a`` is
+    singular (:data:`SINGULAR_PIVOT_RATIO`). ``a`` ``(..., n, n)``; ``b`` ``(..., n)``
+    or ``(..., n, k)``.
+
+    A KKT system whose active constraints are dependent has no unique
+    multipliers (and no accelerations at all if the constraints contradict each
+    other); its LU ends with a pivot of rounding size, and a plain solve returned
+    finite values anywhere from plausible to 1e35 in 3 of 10 random cases
+    (inf/NaN in the rest), which the integrator would carry on with until some
+    guard named a cause that is not the real one. NaN instead makes the step end
+    ``nonfinite``. The unrolled elimination of orders up to 8 has no such test:
+    the simplest walker's mass matrix, with its 1e-12 foot mass, is meant to be
+    nearly singular (only its reverse mode solves by this function).
+    """
+    if a.ndim > 2:  # a batch: the same for each matrix (batched LAPACK calls)
+        return jax.vmap(_solve_or_nan)(a, b)
+    lu, _, permutation = jax.lax.linalg.lu(a)
+    rhs = b if b.ndim == 2 else b[:, None]
+    y = jax.lax.linalg.triangular_solve(lu, rhs[permutation], left_side=True, lower=True, unit_diagonal=True)
+    x = jax.lax.linalg.triangular_solve(lu, y, left_side=True, lower=False)
+    x = jnp.where(_singular(jnp.diagonal(lu)), jnp.nan, x)
+    return x if b.ndim == 2 else x[:, 0]
 
 
 @_lapack_one.def_vmap
@@ -414,14 +458,15 @@ def _one_at_a_time(a: Array, b: Array) -> Array:
 def _batched(a: Array, b: Array) -> Array:
     """``a[i]^-1 b[i]`` for a batch by one batched call (backends without the CPU's
     intra-op pool; not yet run on one)."""
-    return jax.vmap(jnp.linalg.solve)(a, b)
+    return _solve_or_nan(a, b)
 
 
 def _looped_solve(a: Array, b: Array) -> Array:
     """``a^-1 b`` by Gaussian elimination with partial pivoting in a ``fori_loop``.
 
     Compiles to a small program (unlike the unrolled elimination) but runs several
-    times slower than LAPACK; for impacts, once per event.
+    times slower than LAPACK; for impacts, once per event. NaN where ``a`` is
+    singular (:data:`SINGULAR_PIVOT_RATIO`).
     """
     n = a.shape[0]
     w = jnp.concatenate([a, b[:, None]], axis=1)
@@ -442,7 +487,8 @@ def _looped_solve(a: Array, b: Array) -> Array:
         value = w[k, n] - jnp.sum(jnp.where(rows > k, w[k, :n], 0.0) * x)
         return x.at[k].set(value / w[k, k])
 
-    return jax.lax.fori_loop(0, n, substitute, jnp.zeros(n, w.dtype))
+    x = jax.lax.fori_loop(0, n, substitute, jnp.zeros(n, w.dtype))
+    return jnp.where(_singular(jnp.diagonal(w[:, :n])), jnp.nan, x)
 
 
 def _reduced_kkt(mass: Array, sigma: Array, active: np.ndarray) -> Array:
