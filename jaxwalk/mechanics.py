@@ -396,7 +396,8 @@ def _lapack_one(a: Array, b: Array) -> Array:
 #: this fraction of the largest (partial pivoting). Dependent constraint rows give
 #: 1e-18..3e-14 (rounding, up to about 150 eps at orders 10-12); the walkers'
 #: KKT systems 3.6e-4 (kneed) and 1.7e-3 (flat-foot) at the least in a default
-#: step (``benchmarks/kkt_pivot_ratios.py``). Constraints dependent to within
+#: step, their impacts 0.025 and 2.1e-3, the simplest walker's impacts (order 8,
+#: not tested) 9.6e-13 (``benchmarks/kkt_pivot_ratios.py``). Constraints dependent to within
 #: this fraction count as dependent: a solve would amplify rounding by about
 #: 1e10 or more.
 SINGULAR_PIVOT_RATIO = 1e-10
@@ -419,9 +420,10 @@ def _solve_or_nan(a: Array, b: Array) -> Array:
     finite values anywhere from plausible to 1e35 in 3 of 10 random cases
     (inf/NaN in the rest), which the integrator would carry on with until some
     guard named a cause that is not the real one. NaN instead makes the step end
-    ``nonfinite``. The unrolled elimination of orders up to 8 has no such test:
-    the simplest walker's mass matrix, with its 1e-12 foot mass, is meant to be
-    nearly singular (only its reverse mode solves by this function).
+    ``nonfinite``. Systems of order 8 or less have no such test (the unrolled
+    elimination, and impacts' looped one): the simplest walker's, with its 1e-12
+    foot mass, are meant to be nearly singular (the unrolled solve's reverse
+    mode solves by this function, untested for that reason).
     """
     if a.ndim > 2:  # a batch: the same for each matrix (batched LAPACK calls)
         return jax.vmap(_solve_or_nan)(a, b)
@@ -429,7 +431,8 @@ def _solve_or_nan(a: Array, b: Array) -> Array:
     rhs = b if b.ndim == 2 else b[:, None]
     y = jax.lax.linalg.triangular_solve(lu, rhs[permutation], left_side=True, lower=True, unit_diagonal=True)
     x = jax.lax.linalg.triangular_solve(lu, y, left_side=True, lower=False)
-    x = jnp.where(_singular(jnp.diagonal(lu)), jnp.nan, x)
+    if a.shape[-1] > UNROLLED_SOLVE_MAX:  # see above: small systems are not tested
+        x = jnp.where(_singular(jnp.diagonal(lu)), jnp.nan, x)
     return x if b.ndim == 2 else x[:, 0]
 
 
@@ -466,7 +469,8 @@ def _looped_solve(a: Array, b: Array) -> Array:
 
     Compiles to a small program (unlike the unrolled elimination) but runs several
     times slower than LAPACK; for impacts, once per event. NaN where ``a`` is
-    singular (:data:`SINGULAR_PIVOT_RATIO`).
+    singular (:data:`SINGULAR_PIVOT_RATIO`) and of an order above
+    :data:`UNROLLED_SOLVE_MAX`, as the solves of :func:`solve`.
     """
     n = a.shape[0]
     w = jnp.concatenate([a, b[:, None]], axis=1)
@@ -488,6 +492,8 @@ def _looped_solve(a: Array, b: Array) -> Array:
         return x.at[k].set(value / w[k, k])
 
     x = jax.lax.fori_loop(0, n, substitute, jnp.zeros(n, w.dtype))
+    if n <= UNROLLED_SOLVE_MAX:  # the simplest walker's impacts: nearly singular by design
+        return x
     return jnp.where(_singular(jnp.diagonal(w[:, :n])), jnp.nan, x)
 
 
