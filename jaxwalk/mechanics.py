@@ -397,9 +397,9 @@ def _lapack_one(a: Array, b: Array) -> Array:
 #: 1e-18..3e-14 (rounding, up to about 150 eps at orders 10-12); the walkers'
 #: KKT systems 3.6e-4 (kneed) and 1.7e-3 (flat-foot) at the least in a default
 #: step, their impacts 0.025 and 2.1e-3, the simplest walker's impacts (order 8,
-#: not tested) 9.6e-13 (``benchmarks/kkt_pivot_ratios.py``). Constraints dependent to within
-#: this fraction count as dependent: a solve would amplify rounding by about
-#: 1e10 or more.
+#: not tested) 9.6e-13 (``benchmarks/kkt_pivot_ratios.py``). Constraints
+#: dependent to within this fraction count as dependent: a solve would amplify
+#: rounding by about 1e10 or more.
 SINGULAR_PIVOT_RATIO = 1e-10
 
 
