@@ -45,7 +45,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float, Int32
 
 from jaxwalk.status import Status
-from jaxwalk.stepbase import SolverOptions, StepResult, close_phase, guard_offsets
+from jaxwalk.stepbase import FIRST_STEP, SolverOptions, StepResult, close_phase, guard_offsets
 from jaxwalk.walker import Params, Walker
 
 sg = jax.lax.stop_gradient
@@ -189,7 +189,8 @@ def _close_phase(model: Walker, params, opts: SolverOptions, c: _Carry, go_on: _
     one = jnp.ones((), c.t.dtype)
     return go_on._replace(
         t=end.t_event,
-        dt=jnp.full((), FIRST_STEP, c.t.dtype),
+        # A phase that ended at its start took no step: its proposal is the one it was given.
+        dt=jnp.where(at_start, c.dt, go_on.dt) if opts.carry_step else jnp.full((), FIRST_STEP, c.t.dtype),
         y=end.y_next,
         phase=end.phase_next,
         ctx=end.ctx_next,
@@ -269,14 +270,6 @@ def _advance(model: Walker, params, opts: SolverOptions, c: _Carry) -> _Carry:
     return jax.tree_util.tree_map(lambda x, y: jnp.where(ended, x, y), closed, go_on)
 
 
-#: First step of every phase (model time units). It is what each phase's
-#: ``diffeqsolve`` in the nested engine starts with: diffrax wraps the term
-#: (``WrapTerm``) before its initial-step heuristic, which then returns 0.01.
-#: diffrax's heuristic proper (two vector-field evaluations) chose 0.04 on
-#: the simplest walker and made lambda_max 3x less accurate (1.2e-6 against
-#: 3.7e-7 at rtol 1e-10, gamma 0.004): the first steps of a phase are the
-#: ones whose error the controller has not yet measured.
-FIRST_STEP = 0.01
 
 
 def run_step_flat(model: Walker, params: Params, y0: Float[Array, "2*n_q"], phase0: Int32[ArrayLike, ""],

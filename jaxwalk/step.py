@@ -24,7 +24,7 @@ from jaxtyping import Array, ArrayLike, Bool, Float, Int32
 from jaxwalk.flatstep import run_step_flat
 from jaxwalk.rootfind import BracketedNewton
 from jaxwalk.status import Status
-from jaxwalk.stepbase import PhaseEnd, SolverOptions, StepResult, close_phase, guard_offsets  # noqa: F401 (re-exported)
+from jaxwalk.stepbase import FIRST_STEP, PhaseEnd, SolverOptions, StepResult, close_phase, guard_offsets  # noqa: F401 (re-exported)
 from jaxwalk.walker import Params, Walker
 
 
@@ -41,16 +41,53 @@ def start_guards(model: Walker, params, t0, y0, phase, ctx) -> Float[Array, "n_g
     return jax.lax.stop_gradient(model.guard_values(t0, y0, params, phase, ctx))
 
 
+class ProposingController(diffrax.AbstractAdaptiveStepSizeController):
+    """diffrax's ``PIDController`` whose state also keeps the step it proposes next.
+
+    A solve saved with ``SaveAt(controller_state=True)`` then says what step
+    the controller would have taken after the phase's last one: the next
+    phase's first step (:attr:`SolverOptions.carry_step`). Steps, verdicts and
+    error memories are the inner controller's, unchanged.
+    """
+
+    inner: diffrax.PIDController
+    rtol: float
+    atol: float
+
+    def __init__(self, inner: diffrax.PIDController):
+        self.inner, self.rtol, self.atol = inner, inner.rtol, inner.atol
+
+    @property
+    def norm(self):
+        return self.inner.norm
+
+    def wrap(self, direction):
+        return ProposingController(self.inner.wrap(direction))
+
+    def init(self, terms, t0, t1, y0, dt0, args, func, error_order):
+        t_next, state = self.inner.init(terms, t0, t1, y0, dt0, args, func, error_order)
+        return t_next, (state, t_next - t0)
+
+    def adapt_step_size(self, t0, t1, y0, y1_candidate, args, y_error, error_order, controller_state):
+        state, _ = controller_state
+        keep, t_next0, t_next1, jump, state, result = self.inner.adapt_step_size(
+            t0, t1, y0, y1_candidate, args, y_error, error_order, state
+        )
+        return keep, t_next0, t_next1, jump, (state, t_next1 - t_next0), result
+
+
 def solve_phase(model: Walker, params, y, phase, ctx, t0, g0: Float[Array, "n_guards"], opts: SolverOptions,
-                dense: bool = False, empty: Bool[ArrayLike, ""] = False):
+                dense: bool = False, empty: Bool[ArrayLike, ""] = False, dt0: Float[ArrayLike, ""] = FIRST_STEP):
     """Integrate ``phase`` from ``t0`` until an event or the time limit.
 
     Args:
         g0: ``(n_guards,)`` guard values at ``(t0, y)`` (:func:`start_guards`).
         empty: solve over the empty interval ``[t0, t0]`` instead (no solver step).
+        dt0: the first step (model time units).
 
-    Returns the diffrax ``Solution`` (saved at its end; with ``dense=True`` also
-    its interpolation, which the recorder of ``jaxwalk simulate`` samples).
+    Returns the diffrax ``Solution`` (saved at its end, with the controller's
+    state, whose last entry is the step it proposes next; with ``dense=True``
+    also its interpolation, which the recorder of ``jaxwalk simulate`` samples).
     """
     term = diffrax.ODETerm(model.vector_field)
     offsets = guard_offsets(g0, opts)
@@ -69,15 +106,15 @@ def solve_phase(model: Walker, params, y, phase, ctx, t0, g0: Float[Array, "n_gu
         opts.make_solver(),
         t0=t0,
         t1=t1,
-        dt0=None,
+        dt0=jax.lax.stop_gradient(jnp.asarray(dt0, y.dtype)),
         y0=y,
         args=(params, phase, ctx),
         event=event,
-        stepsize_controller=opts.make_controller(model),
+        stepsize_controller=ProposingController(opts.make_controller(model)),
         max_steps=opts.max_solver_steps,
         adjoint=diffrax.ForwardMode(),
         throw=False,
-        saveat=diffrax.SaveAt(t1=True, dense=dense),
+        saveat=diffrax.SaveAt(t1=True, dense=dense, controller_state=True),
     )
     return sol
 
@@ -90,11 +127,18 @@ def solve_phase(model: Walker, params, y, phase, ctx, t0, g0: Float[Array, "n_gu
 # second-order sensitivity program fell from 66 to 40 s; the compiled program
 # and every number are unchanged (benchmarks/bench_jit_boundaries.py).
 @functools.partial(jax.jit, static_argnums=(0, 7))
-def _solve_phase(model: Walker, params, y, phase, ctx, t0, g0, opts: SolverOptions, empty=False):
-    """End time, end state and diffrax result of :func:`solve_phase`, and its
-    solver steps (accepted and rejected)."""
-    sol = solve_phase(model, params, y, phase, ctx, t0, g0, opts, empty=empty)
-    return (sol.ts[-1], sol.ys[-1], sol.result), jnp.asarray(sol.stats["num_steps"], jnp.int32)
+def _solve_phase(model: Walker, params, y, phase, ctx, t0, g0, opts: SolverOptions, empty=False, dt0=FIRST_STEP):
+    """End time, end state and diffrax result of :func:`solve_phase`, its
+    solver steps (accepted and rejected), and the next phase's first step."""
+    sol = solve_phase(model, params, y, phase, ctx, t0, g0, opts, empty=empty, dt0=dt0)
+    return (sol.ts[-1], sol.ys[-1], sol.result), jnp.asarray(sol.stats["num_steps"], jnp.int32), next_first_step(sol, opts)
+
+
+def next_first_step(sol, opts: SolverOptions) -> Float[Array, ""]:
+    """The first step of the phase after ``sol``'s: what its controller proposed
+    next (:attr:`SolverOptions.carry_step`), or :data:`FIRST_STEP`."""
+    proposed = jax.lax.stop_gradient(sol.controller_state[1])
+    return proposed if opts.carry_step else jnp.full_like(proposed, FIRST_STEP)
 
 
 def event_at_start(g0: Float[Array, "n_guards"], opts: SolverOptions) -> Bool[Array, ""]:
@@ -110,7 +154,7 @@ def event_at_start(g0: Float[Array, "n_guards"], opts: SolverOptions) -> Bool[Ar
     return jnp.min(g0) < -opts.start_guard_margin
 
 
-def _solve_unless_ended(model: Walker, params, y, phase, ctx, t0, g0, opts: SolverOptions):
+def _solve_unless_ended(model: Walker, params, y, phase, ctx, t0, g0, opts: SolverOptions, dt0):
     """:func:`_solve_phase` over an empty interval where the phase ends at its
     start or its state is not finite (:func:`close_phase` then says ``NONFINITE``).
 
@@ -123,7 +167,7 @@ def _solve_unless_ended(model: Walker, params, y, phase, ctx, t0, g0, opts: Solv
     (``t1 = t0``) takes no solver step, also in a vmapped batch, where a
     ``lax.cond`` on a batched condition would run the full solve anyway."""
     ends = event_at_start(g0, opts) | ~jnp.all(jnp.isfinite(y))
-    return _solve_phase(model, params, y, phase, ctx, t0, g0, opts, ends)
+    return _solve_phase(model, params, y, phase, ctx, t0, g0, opts, ends, dt0)
 
 
 def end_phase(model: Walker, params, t0, y0, phase, ctx, g0, solved, n_events, opts: SolverOptions) -> PhaseEnd:
@@ -159,6 +203,7 @@ class _PhaseLoop(NamedTuple):
     work: Array  # actuator work so far (model energy units)
     ode_steps: Array  # int32, ODE solver steps so far (accepted and rejected)
     guard: Array  # int32, the guard of the last phase's event (-1: it ended without one)
+    dt: Array  # the next phase's first step
 
 
 @functools.partial(jax.jit, static_argnums=(0, 5))  # see _solve_phase
@@ -186,13 +231,13 @@ def run_step(model: Walker, params: Params, y0: Float[Array, "2*n_q"], phase0: I
 
     def body(c: _PhaseLoop) -> _PhaseLoop:
         g0 = start_guards(model, params, c.t, c.y, c.phase, c.ctx)
-        solved, ode_steps = _solve_unless_ended(model, params, c.y, c.phase, c.ctx, c.t, g0, opts)
+        solved, ode_steps, dt = _solve_unless_ended(model, params, c.y, c.phase, c.ctx, c.t, g0, opts, c.dt)
         end = end_phase(model, params, c.t, c.y, c.phase, c.ctx, g0, solved, c.n_events, opts)
         # Work over the phase, from its start to the event (before the reset,
         # which may relabel the legs; impacts do not move the joints), and the reset's own.
         work = c.work + model.actuator_work(c.y, end.y_event, params, c.phase, c.ctx) + end.work
         return _PhaseLoop(end.t_event, end.y_next, end.phase_next, end.ctx_next, c.length + end.shift, end.status,
-                          end.n_events, work, c.ode_steps + ode_steps, jnp.where(end.event_happened, end.guard, -1))
+                          end.n_events, work, c.ode_steps + ode_steps, jnp.where(end.event_happened, end.guard, -1), dt)
 
     dtype = y0.dtype
     c0 = _PhaseLoop(
@@ -206,6 +251,7 @@ def run_step(model: Walker, params: Params, y0: Float[Array, "2*n_q"], phase0: I
         work=jnp.zeros((), dtype),
         ode_steps=jnp.zeros((), jnp.int32),
         guard=jnp.full((), -1, jnp.int32),
+        dt=jnp.full((), FIRST_STEP, dtype),
     )
     c = jax.lax.while_loop(cond, body, c0)
     return StepResult(c.y, c.ctx, c.phase, c.t, c.length, c.status, c.n_events, c.work, c.ode_steps, c.guard)

@@ -91,14 +91,18 @@ def _observe(model: Walker, params, y, phase, ctx):
 def _compiled(model: Walker, opts):
     """Jitted pieces of the recorder for one model and solver settings."""
     import jax
+    import jax.numpy as jnp
 
-    from jaxwalk.step import end_phase, solve_phase, start_guards
+    from jaxwalk.step import end_phase, event_at_start, next_first_step, solve_phase, start_guards
 
-    def advance(params, y, phase, ctx, t0, n_events):
+    def advance(params, y, phase, ctx, t0, n_events, dt0):
         g0 = start_guards(model, params, t0, y, phase, ctx)
-        sol = solve_phase(model, params, y, phase, ctx, t0, g0, opts, dense=True)
+        sol = solve_phase(model, params, y, phase, ctx, t0, g0, opts, dense=True, dt0=dt0)
         solved = (sol.ts[-1], sol.ys[-1], sol.result)
-        return end_phase(model, params, t0, y, phase, ctx, g0, solved, n_events, opts), sol.interpolation
+        # As run_step, which solves a phase that ends at its start over an empty
+        # interval: no step taken, so the next phase starts with this one's first step.
+        dt_next = jnp.where(event_at_start(g0, opts), dt0, next_first_step(sol, opts))
+        return end_phase(model, params, t0, y, phase, ctx, g0, solved, n_events, opts), sol.interpolation, dt_next
 
     def sample(interp, ts, params, phase, ctx):
         ys = jax.vmap(interp.evaluate)(ts)
@@ -222,11 +226,14 @@ def _record_step(programs, actuated: bool, params, st: _Walk, k: int, dt: float,
     """Step ``k`` from ``st`` (advanced in place), phase by phase: its status, duration and length."""
     import jax.numpy as jnp
 
+    from jaxwalk.step import FIRST_STEP
+
     advance, sample, observe, _ = programs
     t_local, n_events, length = 0.0, 0, 0.0
+    first_step = jnp.asarray(FIRST_STEP)
     step_code = int(Status.IN_PROGRESS)
     while step_code == int(Status.IN_PROGRESS):
-        out, interp = advance(params, st.y, st.phase, st.ctx, jnp.asarray(t_local), jnp.asarray(n_events, jnp.int32))
+        out, interp, first_step = advance(params, st.y, st.phase, st.ctx, jnp.asarray(t_local), jnp.asarray(n_events, jnp.int32), first_step)
         n_events += 1
         t_event = float(out.t_event)
         _sample_phase(sample, interp, actuated, params, st, k, (t_local, t_event), dt, samples)
