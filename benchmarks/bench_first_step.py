@@ -1,8 +1,9 @@
 """Benchmark: each phase's first step carried from the phase before, against 0.01 always.
 
-``SolverOptions.carry_step``: with ``True`` (the default since 2026-12-06) a
-phase starts with the step the controller proposed at the end of the phase
-before; with ``False`` every phase starts at ``FIRST_STEP = 0.01``, as before.
+``SolverOptions.carry_step``: with ``True`` (since 2026-12-06 the default of
+every walker but the simplest, ``Walker.carry_step``) a phase starts with the
+step the controller proposed at the end of the phase before; with ``False``
+every phase starts at ``FIRST_STEP = 0.01``, as before.
 A flat-foot step has 11 events (six phase ends, five swing-foot height
 extrema that restart the solve), and each restart at 0.01 had to grow its
 steps again.

@@ -190,7 +190,7 @@ def _close_phase(model: Walker, params, opts: SolverOptions, c: _Carry, go_on: _
     return go_on._replace(
         t=end.t_event,
         # A phase that ended at its start took no step: its proposal is the one it was given.
-        dt=jnp.where(at_start, c.dt, go_on.dt) if opts.carry_step else jnp.full((), FIRST_STEP, c.t.dtype),
+        dt=jnp.where(at_start, c.dt, go_on.dt) if opts.carries_step(model) else jnp.full((), FIRST_STEP, c.t.dtype),
         y=end.y_next,
         phase=end.phase_next,
         ctx=end.ctx_next,

@@ -46,7 +46,7 @@ class ProposingController(diffrax.AbstractAdaptiveStepSizeController):
 
     A solve saved with ``SaveAt(controller_state=True)`` then says what step
     the controller would have taken after the phase's last one: the next
-    phase's first step (:attr:`SolverOptions.carry_step`). Steps, verdicts and
+    phase's first step (:meth:`SolverOptions.carries_step`). Steps, verdicts and
     error memories are the inner controller's, unchanged.
     """
 
@@ -131,14 +131,14 @@ def _solve_phase(model: Walker, params, y, phase, ctx, t0, g0, opts: SolverOptio
     """End time, end state and diffrax result of :func:`solve_phase`, its
     solver steps (accepted and rejected), and the next phase's first step."""
     sol = solve_phase(model, params, y, phase, ctx, t0, g0, opts, empty=empty, dt0=dt0)
-    return (sol.ts[-1], sol.ys[-1], sol.result), jnp.asarray(sol.stats["num_steps"], jnp.int32), next_first_step(sol, opts)
+    return (sol.ts[-1], sol.ys[-1], sol.result), jnp.asarray(sol.stats["num_steps"], jnp.int32), next_first_step(model, sol, opts)
 
 
-def next_first_step(sol, opts: SolverOptions) -> Float[Array, ""]:
+def next_first_step(model: Walker, sol, opts: SolverOptions) -> Float[Array, ""]:
     """The first step of the phase after ``sol``'s: what its controller proposed
-    next (:attr:`SolverOptions.carry_step`), or :data:`FIRST_STEP`."""
+    next (:meth:`SolverOptions.carries_step`), or :data:`FIRST_STEP`."""
     proposed = jax.lax.stop_gradient(sol.controller_state[1])
-    return proposed if opts.carry_step else jnp.full_like(proposed, FIRST_STEP)
+    return proposed if opts.carries_step(model) else jnp.full_like(proposed, FIRST_STEP)
 
 
 def event_at_start(g0: Float[Array, "n_guards"], opts: SolverOptions) -> Bool[Array, ""]:

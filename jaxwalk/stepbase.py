@@ -69,7 +69,9 @@ class SolverOptions:
             benchmarks/README.md).
         carry_step: start each phase with the step the controller proposed at
             the end of the phase before (the step's first phase, and every
-            phase with ``False``, at :data:`FIRST_STEP`).
+            phase with ``False``, at :data:`FIRST_STEP`). ``None`` (default):
+            the walker's own, :attr:`jaxwalk.walker.Walker.carry_step`, ``True``
+            but for the simplest walker. Not settable from a config.
     """
 
     rtol: float = 1e-10
@@ -85,7 +87,7 @@ class SolverOptions:
     pcoeff: float = 0.0
     icoeff: float = 1.0
     safety: float | None = None
-    carry_step: bool = True
+    carry_step: bool | None = None
 
     def __post_init__(self):
         # run_step's loop is bounded by max_events (its condition); a step has at least one event.
@@ -110,15 +112,22 @@ class SolverOptions:
         return diffrax.PIDController(rtol=self.rtol, atol=self.atol, pcoeff=self.pcoeff, icoeff=self.icoeff,
                                      safety=safety)
 
+    def carries_step(self, model) -> bool:
+        """Whether ``model``'s phases start with the step proposed at the end of the one before."""
+        return model.carry_step if self.carry_step is None else self.carry_step
+
     def as_record(self, model=None) -> dict:
         """The settings as plain data for a dataset's attributes: every field, the
         solver by its name (an object by its ``repr``, e.g. ``"Tsit5()"``, where
         ``dataclasses.asdict`` would keep only its fields and lose its class),
-        and with ``model`` the safety factor its solves used (``safety = None``
-        resolved to :attr:`~jaxwalk.walker.Walker.step_safety`)."""
+        and with ``model`` the safety factor and first-step rule its solves used
+        (``safety`` and ``carry_step`` of ``None`` resolved to the walker's
+        :attr:`~jaxwalk.walker.Walker.step_safety` and :attr:`~jaxwalk.walker.Walker.carry_step`)."""
         record = dataclasses.asdict(self)
         if model is not None and self.safety is None:
             record["safety"] = model.step_safety
+        if model is not None and self.carry_step is None:
+            record["carry_step"] = model.carry_step
         record["solver"] = self.solver if isinstance(self.solver, str) else repr(self.solver)
         return record
 

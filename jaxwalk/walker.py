@@ -114,6 +114,9 @@ class Walker:
         basin_radius, basin_scale: the basin measure's ball of starts by default.
         step_safety: the step-size controller's safety factor where the solver
             settings name none (:class:`jaxwalk.stepbase.SolverOptions`).
+        carry_step: whether a phase starts with the step the controller
+            proposed at the end of the phase before, where the solver settings
+            do not say (:attr:`jaxwalk.stepbase.SolverOptions.carry_step`).
 
     Models are compared and hashed by value, their class and instance
     attributes (which must be hashable): every jitted program closes over its
@@ -160,6 +163,11 @@ class Walker:
     #: is ``None`` (the default): diffrax's 0.9, measured per model
     #: (benchmarks/bench_controller.py; 0.75 for the flat-foot walker).
     step_safety: float = 0.9
+    #: Each phase's first step carried from the phase before where
+    #: ``SolverOptions.carry_step`` is ``None`` (the default): fewer solver
+    #: steps on every walker (benchmarks/bench_first_step.py); the simplest
+    #: walker's own setting says why it does not.
+    carry_step: bool = True
 
     def _identity(self) -> tuple:
         return type(self), tuple(sorted(vars(self).items()))

@@ -53,3 +53,16 @@ def test_a_carried_first_step_takes_fewer_solver_steps_and_the_same_step(engine)
     assert int(r_carried.ode_steps) < int(r_fixed.ode_steps)
     np.testing.assert_allclose(v_carried, v_fixed, atol=1e-8)
     np.testing.assert_allclose(r_carried.time, r_fixed.time, atol=1e-8)
+
+
+def test_the_walker_decides_where_the_settings_do_not_and_datasets_record_it():
+    """``carry_step=None`` resolves to the walker's own (the simplest walker: no), and
+    ``as_record`` writes the resolved value, as it does the safety factor."""
+    simplest, flatfoot = get_model("simplest"), get_model("flatfoot")
+    default = SolverOptions()
+    assert default.carry_step is None
+    assert default.carries_step(flatfoot) and not default.carries_step(simplest)
+    assert SolverOptions(carry_step=True).carries_step(simplest)
+    assert not SolverOptions(carry_step=False).carries_step(flatfoot)
+    assert default.as_record(simplest)["carry_step"] is False
+    assert default.as_record(flatfoot)["carry_step"] is True

@@ -36,6 +36,13 @@ class SimplestWalker(CompassWalker):
     # a thin strip along d alpha_1 = -d alpha_1_dot; docs/global_stability.md).
     basin_radius = 0.01
     basin_scale = None
+    # Every phase starts at 0.01, as before 2026-12-06. With the first step
+    # carried from the phase before (2 solver steps fewer of 18, 1.07-1.13x
+    # faster) this walker's lambda_max noise at rtol 1e-10 moved its period-2
+    # multipliers 1.8e-6 from the SciPy walker's, beyond that test's 1e-6, the
+    # noise of its strongly curved map (benchmarks/README.md, "Each phase's
+    # first step"); the test's bound was not loosened.
+    carry_step = False
 
     def mass_model(self, params):
         one = jnp.ones_like(params["gamma"])

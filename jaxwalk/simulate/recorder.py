@@ -101,7 +101,7 @@ def _compiled(model: Walker, opts):
         solved = (sol.ts[-1], sol.ys[-1], sol.result)
         # As run_step, which solves a phase that ends at its start over an empty
         # interval: no step taken, so the next phase starts with this one's first step.
-        dt_next = jnp.where(event_at_start(g0, opts), dt0, next_first_step(sol, opts))
+        dt_next = jnp.where(event_at_start(g0, opts), dt0, next_first_step(model, sol, opts))
         return end_phase(model, params, t0, y, phase, ctx, g0, solved, n_events, opts), sol.interpolation, dt_next
 
     def sample(interp, ts, params, phase, ctx):
