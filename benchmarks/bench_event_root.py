@@ -1,0 +1,117 @@
+"""Benchmark (an experiment, not kept): the nested engine's event root finder with a
+converged Newton step taken instead of bisected.
+
+``jaxwalk.rootfind.BracketedNewton`` takes a Newton step that lands strictly
+inside the bracket and bisects otherwise. Once Newton has converged, the
+iterate is itself a bracket end and the next Newton step (below one ulp)
+lands on it or just past it; that step is bisected, the root thrown away, and
+the bracket then halved down to the tolerance (1e-13): on the paper walker's
+flat-foot step two of the 11 events took 38 and 17 extra iterations, each a
+guard evaluation under ``jvp``. The candidate (``converged``, below) takes a
+Newton step within the tolerance as convergence, as the flat engine's
+``locate_event`` does. It is not the default: it moves the simplest walker's
+numbers by their integration noise, and there Newton's stopping test (an
+update below 1e-8) sits at that noise at the smallest slopes (benchmarks/README.md,
+"The event root finder's converged Newton step").
+
+The forms (``bisecting``: today's; ``converged``: the candidate) are installed
+in turn as ``jaxwalk.step.BracketedNewton`` (``jax.clear_caches()`` between, so
+every solve traces again). Per walker and batch size, ``jit(vmap(...))`` on one
+CPU device, compile apart; both forms compiled first, then run in turn (A B A B)
+and the best of ``--repeat`` kept, for one step map from the stored guess and
+the gait search, on ``bench_first_step.py``'s configurations. The largest
+differences of the values between the forms are reported.
+
+    JAXWALK_CACHE_DIR= PYTHONPATH=. python benchmarks/bench_event_root.py [--models flatfoot kneed simplest] [--batches 1 64]
+
+Writes ``benchmarks/results/event_root.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+import jaxwalk  # noqa: E402,F401  (before jax: the device-count flag)
+import jax  # noqa: E402
+import jax.numpy as jnp  # noqa: E402
+
+from _record import write_stamped  # noqa: E402
+from bench_first_step import batch, programs  # noqa: E402
+from jaxwalk import rootfind, step  # noqa: E402
+from jaxwalk.models import get_model  # noqa: E402
+from jaxwalk.step import SolverOptions  # noqa: E402
+
+
+class ConvergedNewton(rootfind.BracketedNewton):
+    """The candidate: a Newton step within the tolerance is taken wherever it lands."""
+
+    def step(self, fn, y, args, options, state, tags):
+        (f, aux), (df, _) = jax.jvp(lambda t: fn(t, args), (y,), (jnp.ones_like(y),))
+        same_as_lower = (f < 0) == state.lower_negative
+        lower = jnp.where(same_as_lower, y, state.lower)
+        upper = jnp.where(same_as_lower, state.upper, y)
+        step = f / jnp.where(df == 0, 1.0, df)
+        newton = y - step
+        inside = (df != 0) & (newton > jnp.minimum(lower, upper)) & (newton < jnp.maximum(lower, upper))
+        converged = (df != 0) & (jnp.abs(step) < self.atol + self.rtol * jnp.abs(y))
+        new_y = jnp.where(f == 0, y, jnp.where(inside | converged, newton, 0.5 * (lower + upper)))
+        new_state = rootfind._State(lower, upper, state.lower_negative, jnp.abs(upper - lower), jnp.abs(new_y - y))
+        return new_y, new_state, aux
+
+
+FORMS = {"bisecting": rootfind.BracketedNewton, "converged": ConvergedNewton}
+
+
+def measure(model, n: int, repeat: int) -> list[dict]:
+    """Both forms compiled, then run in turn ``repeat`` times each; the best run of each kept."""
+    args = batch(model, n)
+    compiled = {}
+    for form, finder in FORMS.items():
+        step.BracketedNewton = finder
+        jax.clear_caches()
+        for name, program in programs(model, SolverOptions()).items():
+            t0 = time.perf_counter()
+            compiled[form, name] = (program.lower(args).compile(), time.perf_counter() - t0)
+    step.BracketedNewton = rootfind.BracketedNewton
+    rows = []
+    for name in ("step", "gait"):
+        best, outs = {f: np.inf for f in FORMS}, {}
+        for _ in range(repeat):
+            for f in FORMS:
+                t0 = time.perf_counter()
+                outs[f] = jax.block_until_ready(compiled[f, name][0](args))
+                best[f] = min(best[f], time.perf_counter() - t0)
+        (values_a, steps_a), (values_b, steps_b) = outs["bisecting"], outs["converged"]
+        diff = [float(np.nanmax(np.abs(np.asarray(a) - np.asarray(b)))) for a, b in zip(values_a, values_b)]
+        row = {"model": model.name, "batch": n, "program": name, "largest_difference": diff,
+               "speedup": best["bisecting"] / best["converged"]}
+        for f, steps in (("bisecting", steps_a), ("converged", steps_b)):
+            row[f] = {"compile_s": compiled[f, name][1], "ms_per_config": 1e3 * best[f] / n,
+                      "solver_steps_mean": float(np.mean(steps))}
+        print(f"{model.name:8s} batch {n:4d} {name}: {row['bisecting']['ms_per_config']:.2f} -> "
+              f"{row['converged']['ms_per_config']:.2f} ms per config ({row['speedup']:.2f}x), "
+              f"values differ by {', '.join(f'{d:.1e}' for d in diff)}", flush=True)
+        rows.append(row)
+    return rows
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--models", nargs="+", default=["flatfoot", "kneed", "simplest"])
+    ap.add_argument("--batches", nargs="+", type=int, default=[1, 64])
+    ap.add_argument("--repeat", type=int, default=5)
+    args = ap.parse_args()
+    rows = [row for name in args.models for n in args.batches for row in measure(get_model(name), n, args.repeat)]
+    write_stamped("event_root", {"rows": rows, "command": " ".join(sys.argv)})
+
+
+if __name__ == "__main__":
+    main()
