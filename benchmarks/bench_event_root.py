@@ -29,12 +29,8 @@ Writes ``benchmarks/results/event_root.json``.
 
 from __future__ import annotations
 
-import argparse
 import os
 import sys
-import time
-
-import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -43,10 +39,8 @@ import jaxwalk  # noqa: E402,F401  (before jax: the device-count flag)
 import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 
-from _record import write_stamped  # noqa: E402
-from bench_first_step import batch, programs  # noqa: E402
+from bench_first_step import cli, compare, compile_programs  # noqa: E402
 from jaxwalk import rootfind, step  # noqa: E402
-from jaxwalk.models import get_model  # noqa: E402
 from jaxwalk.step import SolverOptions  # noqa: E402
 
 
@@ -71,47 +65,15 @@ FORMS = {"bisecting": rootfind.BracketedNewton, "converged": ConvergedNewton}
 
 
 def measure(model, n: int, repeat: int) -> list[dict]:
-    """Both forms compiled, then run in turn ``repeat`` times each; the best run of each kept."""
-    args = batch(model, n)
+    """Both forms compiled (each installed in turn), then compared (``bench_first_step.compare``)."""
     compiled = {}
     for form, finder in FORMS.items():
         step.BracketedNewton = finder
         jax.clear_caches()
-        for name, program in programs(model, SolverOptions()).items():
-            t0 = time.perf_counter()
-            compiled[form, name] = (program.lower(args).compile(), time.perf_counter() - t0)
+        compile_programs(model, n, SolverOptions(), form, compiled)
     step.BracketedNewton = rootfind.BracketedNewton
-    rows = []
-    for name in ("step", "gait"):
-        best, outs = {f: np.inf for f in FORMS}, {}
-        for _ in range(repeat):
-            for f in FORMS:
-                t0 = time.perf_counter()
-                outs[f] = jax.block_until_ready(compiled[f, name][0](args))
-                best[f] = min(best[f], time.perf_counter() - t0)
-        (values_a, steps_a), (values_b, steps_b) = outs["bisecting"], outs["converged"]
-        diff = [float(np.nanmax(np.abs(np.asarray(a) - np.asarray(b)))) for a, b in zip(values_a, values_b)]
-        row = {"model": model.name, "batch": n, "program": name, "largest_difference": diff,
-               "speedup": best["bisecting"] / best["converged"]}
-        for f, steps in (("bisecting", steps_a), ("converged", steps_b)):
-            row[f] = {"compile_s": compiled[f, name][1], "ms_per_config": 1e3 * best[f] / n,
-                      "solver_steps_mean": float(np.mean(steps))}
-        print(f"{model.name:8s} batch {n:4d} {name}: {row['bisecting']['ms_per_config']:.2f} -> "
-              f"{row['converged']['ms_per_config']:.2f} ms per config ({row['speedup']:.2f}x), "
-              f"values differ by {', '.join(f'{d:.1e}' for d in diff)}", flush=True)
-        rows.append(row)
-    return rows
-
-
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--models", nargs="+", default=["flatfoot", "kneed", "simplest"])
-    ap.add_argument("--batches", nargs="+", type=int, default=[1, 64])
-    ap.add_argument("--repeat", type=int, default=5)
-    args = ap.parse_args()
-    rows = [row for name in args.models for n in args.batches for row in measure(get_model(name), n, args.repeat)]
-    write_stamped("event_root", {"rows": rows, "command": " ".join(sys.argv)})
+    return compare(model, n, compiled, tuple(FORMS), repeat)
 
 
 if __name__ == "__main__":
-    main()
+    cli(__doc__.splitlines()[0], measure, "event_root")

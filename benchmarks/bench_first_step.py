@@ -79,46 +79,62 @@ def programs(model, opts: SolverOptions) -> dict:
     return {"step": jax.jit(jax.vmap(step)), "gait": jax.jit(jax.vmap(gait))}
 
 
-def measure(model, n: int, repeat: int) -> dict:
-    """Both settings compiled, then run in turn ``repeat`` times each; the best run of each kept."""
+def compile_programs(model, n: int, opts: SolverOptions, form: str, into: dict) -> None:
+    """``into[form, name] = (compiled, compile_s)`` for each of :func:`programs`, at batch ``n``."""
     args = batch(model, n)
-    compiled = {}
-    for setting, carry in SETTINGS.items():
-        for name, program in programs(model, SolverOptions(carry_step=carry)).items():
-            t0 = time.perf_counter()
-            compiled[setting, name] = (program.lower(args).compile(), time.perf_counter() - t0)
+    for name, program in programs(model, opts).items():
+        t0 = time.perf_counter()
+        into[form, name] = (program.lower(args).compile(), time.perf_counter() - t0)
+
+
+def compare(model, n: int, compiled: dict, forms: tuple[str, str], repeat: int) -> list[dict]:
+    """Two forms' compiled programs (:func:`compile_programs`) run in turn ``repeat`` times
+    each (A B A B, so a change of the machine's speed meets both alike), the best run kept;
+    one row per program: times, solver steps, speed-up and the largest differences of the values."""
+    args = batch(model, n)
+    base, new = forms
     rows = []
     for name in ("step", "gait"):
-        best, outs = {s: np.inf for s in SETTINGS}, {}
+        best, outs = {f: np.inf for f in forms}, {}
         for _ in range(repeat):
-            for s in SETTINGS:
+            for f in forms:
                 t0 = time.perf_counter()
-                outs[s] = jax.block_until_ready(compiled[s, name][0](args))
-                best[s] = min(best[s], time.perf_counter() - t0)
-        (values_a, steps_a), (values_b, steps_b) = outs["fixed"], outs["carried"]
+                outs[f] = jax.block_until_ready(compiled[f, name][0](args))
+                best[f] = min(best[f], time.perf_counter() - t0)
+        (values_a, _), (values_b, _) = outs[base], outs[new]
         diff = [float(np.nanmax(np.abs(np.asarray(a) - np.asarray(b)))) for a, b in zip(values_a, values_b)]
         row = {"model": model.name, "batch": n, "program": name, "largest_difference": diff,
-               "speedup": best["fixed"] / best["carried"]}
-        for s, steps in (("fixed", steps_a), ("carried", steps_b)):
-            row[s] = {"compile_s": compiled[s, name][1], "ms_per_config": 1e3 * best[s] / n,
-                      "solver_steps_mean": float(np.mean(steps))}
-        print(f"{model.name:8s} batch {n:4d} {name}: solver steps {row['fixed']['solver_steps_mean']:.1f} -> "
-              f"{row['carried']['solver_steps_mean']:.1f}, {row['fixed']['ms_per_config']:.2f} -> "
-              f"{row['carried']['ms_per_config']:.2f} ms per config ({row['speedup']:.2f}x), "
+               "speedup": best[base] / best[new]}
+        for f in forms:
+            row[f] = {"compile_s": compiled[f, name][1], "ms_per_config": 1e3 * best[f] / n,
+                      "solver_steps_mean": float(np.mean(outs[f][1]))}
+        print(f"{model.name:8s} batch {n:4d} {name}: solver steps {row[base]['solver_steps_mean']:.1f} -> "
+              f"{row[new]['solver_steps_mean']:.1f}, {row[base]['ms_per_config']:.2f} -> "
+              f"{row[new]['ms_per_config']:.2f} ms per config ({row['speedup']:.2f}x), "
               f"values differ by {', '.join(f'{d:.1e}' for d in diff)}", flush=True)
         rows.append(row)
     return rows
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def measure(model, n: int, repeat: int) -> list[dict]:
+    """Both settings compiled, then compared (:func:`compare`)."""
+    compiled = {}
+    for setting, carry in SETTINGS.items():
+        compile_programs(model, n, SolverOptions(carry_step=carry), setting, compiled)
+    return compare(model, n, compiled, tuple(SETTINGS), repeat)
+
+
+def cli(description: str, measure, result_name: str) -> None:
+    """The command line of this benchmark and of those built on it: ``measure(model, n, repeat)``
+    for every walker and batch, the rows written to ``benchmarks/results/<result_name>.json``."""
+    ap = argparse.ArgumentParser(description=description)
     ap.add_argument("--models", nargs="+", default=["flatfoot", "kneed", "simplest"])
     ap.add_argument("--batches", nargs="+", type=int, default=[1, 64])
     ap.add_argument("--repeat", type=int, default=5)
     args = ap.parse_args()
     rows = [row for name in args.models for n in args.batches for row in measure(get_model(name), n, args.repeat)]
-    write_stamped("first_step", {"rows": rows, "command": " ".join(sys.argv)})
+    write_stamped(result_name, {"rows": rows, "command": " ".join(sys.argv)})
 
 
 if __name__ == "__main__":
-    main()
+    cli(__doc__.splitlines()[0], measure, "first_step")
