@@ -270,8 +270,6 @@ def _advance(model: Walker, params, opts: SolverOptions, c: _Carry) -> _Carry:
     return jax.tree_util.tree_map(lambda x, y: jnp.where(ended, x, y), closed, go_on)
 
 
-
-
 def run_step_flat(model: Walker, params: Params, y0: Float[Array, "2*n_q"], phase0: Int32[ArrayLike, ""],
                   ctx0: Float[Array, "n_ctx"], opts: SolverOptions = SolverOptions()) -> StepResult:
     """One step from a full state, as :func:`jaxwalk.step.run_step` (same arguments and result)."""
