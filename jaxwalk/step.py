@@ -41,6 +41,13 @@ def start_guards(model: Walker, params, t0, y0, phase, ctx) -> Float[Array, "n_g
     return jax.lax.stop_gradient(model.guard_values(t0, y0, params, phase, ctx))
 
 
+class ProposingState(NamedTuple):
+    """:class:`ProposingController`'s state."""
+
+    pid: tuple  # the inner PIDController's state
+    proposed: Array  # the step it proposes next (model time units, in diffrax's direction-normalised time)
+
+
 class ProposingController(diffrax.AbstractAdaptiveStepSizeController):
     """diffrax's ``PIDController`` whose state also keeps the step it proposes next.
 
@@ -66,14 +73,13 @@ class ProposingController(diffrax.AbstractAdaptiveStepSizeController):
 
     def init(self, terms, t0, t1, y0, dt0, args, func, error_order):
         t_next, state = self.inner.init(terms, t0, t1, y0, dt0, args, func, error_order)
-        return t_next, (state, t_next - t0)
+        return t_next, ProposingState(state, t_next - t0)
 
     def adapt_step_size(self, t0, t1, y0, y1_candidate, args, y_error, error_order, controller_state):
-        state, _ = controller_state
         keep, t_next0, t_next1, jump, state, result = self.inner.adapt_step_size(
-            t0, t1, y0, y1_candidate, args, y_error, error_order, state
+            t0, t1, y0, y1_candidate, args, y_error, error_order, controller_state.pid
         )
-        return keep, t_next0, t_next1, jump, (state, t_next1 - t_next0), result
+        return keep, t_next0, t_next1, jump, ProposingState(state, t_next1 - t_next0), result
 
 
 def solve_phase(model: Walker, params, y, phase, ctx, t0, g0: Float[Array, "n_guards"], opts: SolverOptions,
@@ -131,14 +137,24 @@ def _solve_phase(model: Walker, params, y, phase, ctx, t0, g0, opts: SolverOptio
     """End time, end state and diffrax result of :func:`solve_phase`, its
     solver steps (accepted and rejected), and the next phase's first step."""
     sol = solve_phase(model, params, y, phase, ctx, t0, g0, opts, empty=empty, dt0=dt0)
-    return (sol.ts[-1], sol.ys[-1], sol.result), jnp.asarray(sol.stats["num_steps"], jnp.int32), next_first_step(model, sol, opts)
+    solved = (sol.ts[-1], sol.ys[-1], sol.result)
+    return solved, jnp.asarray(sol.stats["num_steps"], jnp.int32), next_first_step(model, sol, opts, dt0, empty)
 
 
-def next_first_step(model: Walker, sol, opts: SolverOptions) -> Float[Array, ""]:
-    """The first step of the phase after ``sol``'s: what its controller proposed
-    next (:meth:`SolverOptions.carries_step`), or :data:`FIRST_STEP`."""
-    proposed = jax.lax.stop_gradient(sol.controller_state[1])
-    return proposed if opts.carries_step(model) else jnp.full_like(proposed, FIRST_STEP)
+def next_first_step(model: Walker, sol, opts: SolverOptions, dt0, stepped_none: Bool[ArrayLike, ""]) -> Float[Array, ""]:
+    """The first step (model time units) of the phase after ``sol``'s, which began with ``dt0``.
+
+    What its controller proposed after its last step (:meth:`SolverOptions.carries_step`;
+    otherwise :data:`FIRST_STEP`), or ``dt0`` itself where the solve took no step
+    (``stepped_none``: an empty interval, or a phase that ended at its start) or
+    the proposal is not a positive number. (Over an empty interval diffrax
+    flips time, ``t1 <= t0``, and the proposal there is ``-dt0``.)
+    """
+    if not opts.carries_step(model):
+        return jnp.full((), FIRST_STEP, sol.ts.dtype)
+    proposed = jax.lax.stop_gradient(sol.controller_state.proposed)
+    keep = stepped_none | ~(jnp.isfinite(proposed) & (proposed > 0))
+    return jnp.where(keep, jax.lax.stop_gradient(dt0), proposed)
 
 
 def event_at_start(g0: Float[Array, "n_guards"], opts: SolverOptions) -> Bool[Array, ""]:
@@ -203,7 +219,7 @@ class _PhaseLoop(NamedTuple):
     work: Array  # actuator work so far (model energy units)
     ode_steps: Array  # int32, ODE solver steps so far (accepted and rejected)
     guard: Array  # int32, the guard of the last phase's event (-1: it ended without one)
-    dt: Array  # the next phase's first step
+    dt: Array  # the next phase's first step (model time units)
 
 
 @functools.partial(jax.jit, static_argnums=(0, 5))  # see _solve_phase

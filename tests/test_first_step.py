@@ -10,7 +10,7 @@ import pytest
 
 from jaxwalk.models import get_model
 from jaxwalk.status import Status
-from jaxwalk.step import FIRST_STEP, ProposingController, SolverOptions, step_map
+from jaxwalk.step import FIRST_STEP, ProposingController, SolverOptions, _solve_phase, start_guards, step_map
 
 
 def _oscillator_solve(controller, t1, saveat):
@@ -30,8 +30,8 @@ def test_the_proposal_is_the_step_a_longer_solve_takes_next():
     proposing = _oscillator_solve(ProposingController(pid), ts[k], diffrax.SaveAt(t1=True, controller_state=True))
     assert int(proposing.stats["num_steps"]) == int(plain.stats["num_steps"])
     np.testing.assert_array_equal(proposing.ys, plain.ys)
-    np.testing.assert_allclose(proposing.controller_state[1], ts[k + 1] - ts[k], rtol=1e-14)
-    assert float(proposing.controller_state[1]) > 10 * FIRST_STEP  # not the first step, grown since
+    np.testing.assert_allclose(proposing.controller_state.proposed, ts[k + 1] - ts[k], rtol=1e-14)
+    assert float(proposing.controller_state.proposed) > 10 * FIRST_STEP  # not the first step, grown since
 
 
 @pytest.mark.slow
@@ -66,3 +66,20 @@ def test_the_walker_decides_where_the_settings_do_not_and_datasets_record_it():
     assert not SolverOptions(carry_step=False).carries_step(flatfoot)
     assert default.as_record(simplest)["carry_step"] is False
     assert default.as_record(flatfoot)["carry_step"] is True
+
+
+@pytest.mark.slow
+def test_a_phase_that_takes_no_step_hands_on_its_own_first_step():
+    """A phase solved over an empty interval (it ended at its start) takes no step, and the
+    next phase starts with the step this one was given: not diffrax's proposal there, which
+    is in its flipped time (t1 <= t0) and negative."""
+    model = get_model("compass")
+    p = model.default_params()
+    y, phase, ctx = model.section_to_state(model.initial_guess(p), p)
+    t0 = jnp.zeros(())
+    g0 = start_guards(model, p, t0, y, phase, ctx)
+    for empty, expect_given in ((True, True), (False, False)):
+        _, steps, dt_next = _solve_phase(model, p, y, phase, ctx, t0, g0, SolverOptions(), empty, jnp.asarray(0.0375))
+        assert (int(steps) == 0) == empty
+        assert float(dt_next) > 0
+        assert (float(dt_next) == 0.0375) == expect_given

@@ -91,7 +91,6 @@ def _observe(model: Walker, params, y, phase, ctx):
 def _compiled(model: Walker, opts):
     """Jitted pieces of the recorder for one model and solver settings."""
     import jax
-    import jax.numpy as jnp
 
     from jaxwalk.step import end_phase, event_at_start, next_first_step, solve_phase, start_guards
 
@@ -101,7 +100,7 @@ def _compiled(model: Walker, opts):
         solved = (sol.ts[-1], sol.ys[-1], sol.result)
         # As run_step, which solves a phase that ends at its start over an empty
         # interval: no step taken, so the next phase starts with this one's first step.
-        dt_next = jnp.where(event_at_start(g0, opts), dt0, next_first_step(model, sol, opts))
+        dt_next = next_first_step(model, sol, opts, dt0, event_at_start(g0, opts))
         return end_phase(model, params, t0, y, phase, ctx, g0, solved, n_events, opts), sol.interpolation, dt_next
 
     def sample(interp, ts, params, phase, ctx):
@@ -230,7 +229,7 @@ def _record_step(programs, actuated: bool, params, st: _Walk, k: int, dt: float,
 
     advance, sample, observe, _ = programs
     t_local, n_events, length = 0.0, 0, 0.0
-    first_step = jnp.asarray(FIRST_STEP)
+    first_step = jnp.asarray(FIRST_STEP, st.y.dtype)  # the type advance returns: one compilation
     step_code = int(Status.IN_PROGRESS)
     while step_code == int(Status.IN_PROGRESS):
         out, interp, first_step = advance(params, st.y, st.phase, st.ctx, jnp.asarray(t_local), jnp.asarray(n_events, jnp.int32), first_step)
