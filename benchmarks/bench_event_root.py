@@ -1,21 +1,18 @@
-"""Benchmark (an experiment, not kept): the nested engine's event root finder with a
-converged Newton step taken instead of bisected.
+"""Benchmark: the nested engine's event root finder with a converged Newton step
+taken, against the same finder bisecting it (the form before 2026-12-06).
 
 ``jaxwalk.rootfind.BracketedNewton`` takes a Newton step that lands strictly
-inside the bracket and bisects otherwise. Once Newton has converged, the
-iterate is itself a bracket end and the next Newton step (below one ulp)
-lands on it or just past it; that step is bisected, the root thrown away, and
-the bracket then halved down to the tolerance (1e-13): on the paper walker's
-flat-foot step two of the 11 events took 38 and 17 extra iterations, each a
-guard evaluation under ``jvp``. The candidate (``converged``, below) takes a
-Newton step within the tolerance as convergence, as the flat engine's
-``locate_event`` does. It is not the default: it moves the simplest walker's
-numbers by their integration noise, and there Newton's stopping test (an
-update below 1e-8) sits at that noise at the smallest slopes (benchmarks/README.md,
-"The event root finder's converged Newton step").
+inside the bracket, or is within the tolerance, and bisects otherwise. The old
+form (``Bisecting``, below) bisected a converged step too: once Newton has
+converged the iterate is itself a bracket end and the next Newton step (below
+one ulp) lands on it or just past it; that step was bisected, the root thrown
+away, and the bracket then halved down to the tolerance (1e-13): on the paper
+walker's flat-foot step two of the 11 events took 38 and 17 extra iterations,
+each a guard evaluation under ``jvp``. The flat engine's ``locate_event``
+always took such a step as convergence.
 
-The forms (``bisecting``: today's; ``converged``: the candidate) are installed
-in turn as ``jaxwalk.step.BracketedNewton`` (``jax.clear_caches()`` between, so
+The forms (``bisecting``: the old; ``converged``: today's) are installed in
+turn as ``jaxwalk.step.BracketedNewton`` (``jax.clear_caches()`` between, so
 every solve traces again). Per walker and batch size, ``jit(vmap(...))`` on one
 CPU device, compile apart; both forms compiled first, then run in turn (A B A B)
 and the best of ``--repeat`` kept, for one step map from the stored guess and
@@ -44,24 +41,22 @@ from jaxwalk import rootfind, step  # noqa: E402
 from jaxwalk.step import SolverOptions  # noqa: E402
 
 
-class ConvergedNewton(rootfind.BracketedNewton):
-    """The candidate: a Newton step within the tolerance is taken wherever it lands."""
+class Bisecting(rootfind.BracketedNewton):
+    """The old form: a Newton step is taken only where it lands strictly inside the bracket."""
 
     def step(self, fn, y, args, options, state, tags):
         (f, aux), (df, _) = jax.jvp(lambda t: fn(t, args), (y,), (jnp.ones_like(y),))
         same_as_lower = (f < 0) == state.lower_negative
         lower = jnp.where(same_as_lower, y, state.lower)
         upper = jnp.where(same_as_lower, state.upper, y)
-        step = f / jnp.where(df == 0, 1.0, df)
-        newton = y - step
+        newton = y - f / jnp.where(df == 0, 1.0, df)
         inside = (df != 0) & (newton > jnp.minimum(lower, upper)) & (newton < jnp.maximum(lower, upper))
-        converged = (df != 0) & (jnp.abs(step) < self.atol + self.rtol * jnp.abs(y))
-        new_y = jnp.where(f == 0, y, jnp.where(inside | converged, newton, 0.5 * (lower + upper)))
+        new_y = jnp.where(f == 0, y, jnp.where(inside, newton, 0.5 * (lower + upper)))
         new_state = rootfind._State(lower, upper, state.lower_negative, jnp.abs(upper - lower), jnp.abs(new_y - y))
         return new_y, new_state, aux
 
 
-FORMS = {"bisecting": rootfind.BracketedNewton, "converged": ConvergedNewton}
+FORMS = {"bisecting": Bisecting, "converged": rootfind.BracketedNewton}
 
 
 def measure(model, n: int, repeat: int) -> list[dict]:

@@ -47,7 +47,7 @@ import jax.numpy as jnp  # noqa: E402
 
 from _record import write_stamped  # noqa: E402
 from _walkers import benchmark_params  # noqa: E402
-from jaxwalk.gait import find_gait  # noqa: E402
+from jaxwalk.gait import NewtonOptions, find_gait  # noqa: E402
 from jaxwalk.models import get_model  # noqa: E402
 from jaxwalk.step import SolverOptions, step_map  # noqa: E402
 
@@ -65,24 +65,26 @@ def batch(model, n: int) -> tuple[dict, jax.Array]:
     return params, v0
 
 
-def programs(model, opts: SolverOptions) -> dict:
-    """``{name: jitted program}``; each returns ``(values to compare, solver steps per config)``."""
+def programs(model, opts: SolverOptions, newton: NewtonOptions = NewtonOptions()) -> dict:
+    """``{name: jitted program}``; each returns ``(values to compare, solver steps per
+    config, Newton iterations per config (0 for the step map))``."""
 
     def step(a):
         v, res = step_map(model, a[1], a[0], opts)
-        return (v,), res.ode_steps
+        return (v,), res.ode_steps, jnp.zeros_like(res.ode_steps)
 
     def gait(a):
-        g = find_gait(model, a[0], a[1], opts)
-        return (g.v, g.lambda_max), g.stats.ode_steps
+        g = find_gait(model, a[0], a[1], opts, newton)
+        return (g.v, g.lambda_max), g.stats.ode_steps, g.iterations
 
     return {"step": jax.jit(jax.vmap(step)), "gait": jax.jit(jax.vmap(gait))}
 
 
-def compile_programs(model, n: int, opts: SolverOptions, form: str, into: dict) -> None:
+def compile_programs(model, n: int, opts: SolverOptions, form: str, into: dict,
+                     newton: NewtonOptions = NewtonOptions()) -> None:
     """``into[form, name] = (compiled, compile_s)`` for each of :func:`programs`, at batch ``n``."""
     args = batch(model, n)
-    for name, program in programs(model, opts).items():
+    for name, program in programs(model, opts, newton).items():
         t0 = time.perf_counter()
         into[form, name] = (program.lower(args).compile(), time.perf_counter() - t0)
 
@@ -101,15 +103,17 @@ def compare(model, n: int, compiled: dict, forms: tuple[str, str], repeat: int) 
                 t0 = time.perf_counter()
                 outs[f] = jax.block_until_ready(compiled[f, name][0](args))
                 best[f] = min(best[f], time.perf_counter() - t0)
-        (values_a, _), (values_b, _) = outs[base], outs[new]
+        values_a, values_b = outs[base][0], outs[new][0]
         diff = [float(np.nanmax(np.abs(np.asarray(a) - np.asarray(b)))) for a, b in zip(values_a, values_b)]
         row = {"model": model.name, "batch": n, "program": name, "largest_difference": diff,
                "speedup": best[base] / best[new]}
         for f in forms:
             row[f] = {"compile_s": compiled[f, name][1], "ms_per_config": 1e3 * best[f] / n,
-                      "solver_steps_mean": float(np.mean(outs[f][1]))}
+                      "solver_steps_mean": float(np.mean(outs[f][1])),
+                      "newton_iterations_mean": float(np.mean(outs[f][2]))}
         print(f"{model.name:8s} batch {n:4d} {name}: solver steps {row[base]['solver_steps_mean']:.1f} -> "
-              f"{row[new]['solver_steps_mean']:.1f}, {row[base]['ms_per_config']:.2f} -> "
+              f"{row[new]['solver_steps_mean']:.1f}, Newton iterations {row[base]['newton_iterations_mean']:.2f} -> "
+              f"{row[new]['newton_iterations_mean']:.2f}, {row[base]['ms_per_config']:.2f} -> "
               f"{row[new]['ms_per_config']:.2f} ms per config ({row['speedup']:.2f}x), "
               f"values differ by {', '.join(f'{d:.1e}' for d in diff)}", flush=True)
         rows.append(row)

@@ -34,10 +34,22 @@ class NewtonOptions:
 
     Attributes:
         tol: converged when the Newton update's largest component is below ``tol``
-            (section units: rad and rad per model time unit). Convergence is
-            quadratic, so the point after an update of 1e-8 is as accurate as the
-            step map itself (integration noise, about 1e-10 at rtol 1e-10);
-            a much smaller ``tol`` would chase that noise and never converge.
+            (section units: rad and rad per model time unit), or, with
+            ``rate_test``, when the error the update leaves is estimated below
+            it. Convergence is quadratic, so the point after an update of 1e-8
+            is as accurate as the step map itself (integration noise: the
+            residual's is ~1e-9 at rtol 1e-10, the update's that over the least
+            singular value of ``J - I``, up to 2.5e-8 on the simplest walker's
+            flattest slopes, docs/engine.md section 4); a much smaller ``tol``
+            would chase that noise and never converge.
+        rate_test: also converged when ``theta / (1 - theta) * |update| < tol``,
+            ``theta = |update| / |previous update|`` the observed contraction
+            (Hairer & Wanner, *Solving ODEs II*, IV.8): a bound on the error left
+            under linear contraction; Newton's is quadratic and leaves about
+            ``theta^2 |update|``. It saves the iteration that only confirms
+            convergence, and stops Newton before it chases the step map's noise
+            (an update of noise size after a large one contracts fast). Off: the
+            update test alone (the sequence before 2026-12-06).
         max_iter: iterations before ``NO_CONVERGENCE``.
         max_update: an update larger than this (inf-norm) is scaled down to it,
             which keeps a poor start from jumping out of the section's domain.
@@ -54,6 +66,7 @@ class NewtonOptions:
     max_iter: int = 25
     max_update: float = 0.2
     predictor: str = "secant"
+    rate_test: bool = True
 
     def __post_init__(self):
         if self.predictor not in PREDICTORS:
@@ -218,7 +231,7 @@ def find_gait(
     fallback = Fallback(v0, jnp.asarray(False)) if fallback is None else fallback
     carry0 = _Newton(v0, zero, running, jnp.asarray(False), jnp.full((n_v, n_v), jnp.nan, dtype), nan, nan, nan, zero, zero,
                      zero - 1, zero - 1, jnp.full(y0.shape, jnp.nan, y0.dtype), jnp.full(ctx0.shape, jnp.nan, ctx0.dtype),
-                     jnp.asarray(fallback.use, bool), zero)
+                     jnp.asarray(fallback.use, bool), zero, jnp.full((), jnp.inf, dtype))
     body = _newton_iteration(step_residual(model, params, solver), newton, jnp.eye(n_v, dtype=dtype))
     body = _fall_back(body, v0, fallback)
 
@@ -249,6 +262,7 @@ class _Newton(NamedTuple):
     ctx_end: Array  # (n_ctx,)
     has_fallback: Array  # bool: the first search, which may still start again from its fallback (once)
     spent: Array  # int32, iterations of a search abandoned for the fallback
+    last_update: Array  # the previous update's size in this search (inf before the first)
 
 
 def _newton_iteration(residual, newton: NewtonOptions, eye: Array):
@@ -279,7 +293,8 @@ def _newton_iteration(residual, newton: NewtonOptions, eye: Array):
             v=jnp.where(move, v + update, v),
             k=k,
             status=status,
-            converged=converged | (size < newton.tol),
+            converged=converged | _small(size, carry.last_update, newton),
+            last_update=size,
             jac=jac_r + eye,
             period=res.time,
             length=res.length,
@@ -293,6 +308,16 @@ def _newton_iteration(residual, newton: NewtonOptions, eye: Array):
         )
 
     return body
+
+
+def _small(size: Array, last: Array, newton: NewtonOptions) -> Array:
+    """Whether an update of ``size`` (inf-norm) after one of ``last`` ends the search (:class:`NewtonOptions`)."""
+    if not newton.rate_test:
+        return size < newton.tol
+    theta = size / last  # 0 before the first update's successor (last = inf): no estimate yet
+    contracting = jnp.isfinite(last) & (theta < 1)
+    left = theta / jnp.where(contracting, 1 - theta, 1) * size
+    return (size < newton.tol) | (contracting & (left < newton.tol))
 
 
 class Fallback(NamedTuple):
@@ -331,6 +356,7 @@ def _fall_back(body, v0: Array, fallback: Fallback):
             k=jnp.where(retry, 0, new.k),
             status=jnp.where(retry, running, new.status),
             converged=new.converged & ~retry,
+            last_update=jnp.where(retry, jnp.inf, new.last_update),
             has_fallback=carry.has_fallback & ~retry,
             spent=new.spent + jnp.where(retry, new.k, 0),
         )
