@@ -46,10 +46,14 @@ class NewtonOptions:
             ``theta = |update| / |previous update|`` the observed contraction
             (Hairer & Wanner, *Solving ODEs II*, IV.8): a bound on the error left
             under linear contraction; Newton's is quadratic and leaves about
-            ``theta^2 |update|``. It saves the iteration that only confirms
-            convergence, and stops Newton before it chases the step map's noise
-            (an update of noise size after a large one contracts fast). Off: the
-            update test alone (the sequence before 2026-12-06).
+            ``theta^2 |update|``. Where the last update contracted fast enough
+            it saves the iteration that only confirmed convergence, and it stops
+            Newton before it chases the step map's noise. Off: the update test
+            alone (the sequence before 2026-12-06). Read by :func:`find_gait`
+            (sweeps, continuation lines, the analyses built on them); the
+            attractor's Newton on the k-step map (:mod:`jaxwalk.attractor`) keeps
+            the update test alone: its halved retries make the contraction
+            between its trips not Newton's.
         max_iter: iterations before ``NO_CONVERGENCE``.
         max_update: an update larger than this (inf-norm) is scaled down to it,
             which keeps a poor start from jumping out of the section's domain.
@@ -212,7 +216,8 @@ def find_gait(
 
     Each iteration evaluates ``f(v) - v`` and its Jacobian ``J - I`` in one
     forward-mode pass and updates ``v -= (J - I)^-1 (f(v) - v)`` (paper eqs. 21-22).
-    After the update that falls below ``tol``, one more evaluation at the
+    After the update that ends the search (below ``tol``, or leaving an error
+    below it by :attr:`NewtonOptions.rate_test`), one more evaluation at the
     converged point gives the reported Jacobian, period and step length.
 
     With a :class:`Fallback` whose ``use`` holds, a search from ``v0`` that
@@ -249,7 +254,7 @@ class _Newton(NamedTuple):
     v: Array  # (n_v,) current iterate
     k: Array  # int32, iterations counted
     status: Array  # int8; IN_PROGRESS while the search goes on
-    converged: Array  # bool: the last update was below tol (this evaluation is at the fixed point)
+    converged: Array  # bool: the last update ended the search (_small; this evaluation is at the fixed point)
     jac: Array  # (n_v, n_v) df/dv at the last evaluation
     period: Array  # the last evaluated step's duration, length and actuator work
     length: Array
@@ -270,7 +275,7 @@ def _newton_iteration(residual, newton: NewtonOptions, eye: Array):
     running = jnp.int8(Status.IN_PROGRESS)
 
     def body(carry: _Newton) -> _Newton:
-        # One evaluation per iteration. Once an update was below tol, the next
+        # One evaluation per iteration. Once an update ended the search, the next
         # iteration evaluates at the converged point and only records it: J,
         # period and length are reported at the fixed point itself, not at the
         # last iterate (the step map is strongly curved near the separatrix,
@@ -294,7 +299,9 @@ def _newton_iteration(residual, newton: NewtonOptions, eye: Array):
             k=k,
             status=status,
             converged=converged | _small(size, carry.last_update, newton),
-            last_update=size,
+            # A step cut to max_update moved the iterate less than ``size``: no
+            # contraction is measured across it.
+            last_update=jnp.where(size > newton.max_update, jnp.inf, size),
             jac=jac_r + eye,
             period=res.time,
             length=res.length,
