@@ -8,7 +8,9 @@ step) and then fails; bisection never fails but converges slowly. This finder
 takes the Newton step when it lands strictly inside the current bracket or is
 within the tolerance (converged) and bisects otherwise, shrinking the bracket
 with every evaluation: quadratic convergence on smooth guards, guaranteed
-convergence on all of them.
+convergence on all of them. A converged step may land outside the bracket by
+less than the tolerance (1e-13 in time); the dense interpolant is evaluated
+there, a negligible extrapolation.
 
 The event time's derivative does not depend on the root finder: optimistix
 differentiates the root implicitly, ``dt/dp = -(dg/dp) / (dg/dt)``.
