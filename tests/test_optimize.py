@@ -195,3 +195,134 @@ def test_bundled_optimize_configs_are_valid(path):
     cfg = load_optimize_config(path)
     assert cfg.name == path.stem
     assert cfg.heatmap and cfg.starts.shape[0] >= 1
+
+
+
+
+class _Handshake:
+    """Two events the stand-ins of the optimiser's compile and of the background
+    grid set and wait for (up to 20 s each): both waits succeed only where the
+    two run at the same time."""
+
+    def __init__(self):
+        import threading
+
+        self.compiling, self.background = threading.Event(), threading.Event()
+        self.seen = {}
+
+    def meet(self, mine, theirs, name):
+        mine.set()
+        self.seen.setdefault(name, theirs.wait(20.0))
+
+
+class _AheadOfTime:
+    """A stand-in jitted program: ``lower(...).compile()`` meets the background
+    grid; each evaluation records whether the grid's thread had ended by then."""
+
+    def __init__(self, hand, fake):
+        self.hand, self.fake = hand, fake
+
+    def lower(self, *args):
+        return self
+
+    def compile(self):
+        self.hand.meet(self.hand.compiling, self.hand.background, "compile")
+        return self
+
+    def __call__(self, params, v0):
+        threads = self.hand.seen.get("threads", [])
+        self.hand.seen.setdefault("grid running at an evaluation", []).append(any(t.is_alive() for t in threads))
+        return self.fake(params, v0)
+
+
+def _with_background(monkeypatch, background, fails=lambda p: p[:, 0] < 0.0):
+    """The simplest config with a background grid; the sensitivity program an
+    :class:`_AheadOfTime` stand-in; ``background(hand, stop)`` stands in for compute_heatmap."""
+    import jaxwalk.optimize.output as output
+
+    hand = _Handshake()
+    fake = _FakeSensitivity(("gamma",), lambda p: (p[:, 0] - 0.01) ** 2, lambda p: 2 * (p - 0.01),
+                            lambda p: p[:, 0], lambda p: np.ones_like(p), fails)
+    _fake(monkeypatch, _AheadOfTime(hand, fake))
+    monkeypatch.setattr(output, "compute_heatmap", lambda *args, stop: background(hand, stop))
+    config = parse(GOOD.replace("[starts]", "[heatmap]\ngamma = { start = 0.005, stop = 0.012, num = 4 }\n[starts]"))
+    return config, hand
+
+
+def _grid(hand, stop):
+    """A background grid of four points, after meeting the optimiser's compile."""
+    import threading
+    import time
+
+    import xarray as xr
+
+    hand.seen.setdefault("threads", []).append(threading.current_thread())
+    hand.meet(hand.background, hand.compiling, "background")
+    time.sleep(0.2)  # still running when the optimiser's compile is done
+    axis = "heatmap_gamma"
+    return xr.Dataset({"heatmap_lambda_max": (axis, np.arange(4.0)), "heatmap_status": (axis, np.zeros(4, np.int8))},
+                      coords={axis: np.linspace(0.005, 0.012, 4)})
+
+
+def test_the_background_grid_runs_while_the_optimiser_compiles(monkeypatch, tmp_path):
+    """The background grid and the optimiser's compile run at the same time (a
+    cold run compiles both programs at once), the grid once and off the caller's
+    thread; no evaluation runs before the grid has ended (no two programs at
+    once), and the grid reaches the dataset."""
+    import threading
+
+    from jaxwalk.optimize.output import run_optimize
+
+    config, hand = _with_background(monkeypatch, _grid)
+    target, ds = run_optimize(config, tmp_path / "out", plot=False)
+    assert hand.seen["compile"] and hand.seen["background"], "the two ran one after the other"
+    assert len(hand.seen["threads"]) == 1 and hand.seen["threads"][0] is not threading.main_thread()
+    running = hand.seen["grid running at an evaluation"]
+    assert len(running) == 6 and not any(running)  # 5 iterations and the start
+    np.testing.assert_array_equal(ds.heatmap_lambda_max.values, np.arange(4.0))
+    assert target.exists()
+
+
+def test_no_background_grid_asked_for_starts_no_thread_and_compiles_nothing_ahead(monkeypatch, tmp_path):
+    from jaxwalk.optimize.output import run_optimize
+
+    config, hand = _with_background(monkeypatch, _grid)
+    _, ds = run_optimize(config, tmp_path / "out", plot=False, heatmap=False)
+    assert "threads" not in hand.seen and "compile" not in hand.seen and "heatmap_lambda_max" not in ds
+
+
+def test_a_failing_background_grid_fails_the_run_before_any_evaluation(monkeypatch, tmp_path):
+    from jaxwalk.optimize.output import run_optimize
+
+    def broken(hand, stop):
+        hand.meet(hand.background, hand.compiling, "background")
+        raise RuntimeError("background broke")
+
+    config, hand = _with_background(monkeypatch, broken)
+    with pytest.raises(RuntimeError, match="background broke"):
+        run_optimize(config, tmp_path / "out", plot=False)
+    assert "grid running at an evaluation" not in hand.seen
+    assert not (tmp_path / "out" / "opt.zarr").exists()
+
+
+def test_a_failing_optimisation_cancels_the_background_grid(monkeypatch, tmp_path):
+    """The path's error reaches the caller at once, and the grid is told to stop
+    (it ends at its next chunk); nothing is written."""
+    import threading
+
+    import jaxwalk.optimize.output as output
+    from jaxwalk.optimize.output import run_optimize
+
+    stopped = threading.Event()
+
+    def slow(hand, stop):
+        if stop.wait(20.0):
+            stopped.set()
+        raise RuntimeError("cancelled")
+
+    config, _ = _with_background(monkeypatch, slow)
+    monkeypatch.setattr(output, "optimise", lambda *a, **k: (_ for _ in ()).throw(KeyError("the path broke")))
+    with pytest.raises(KeyError, match="the path broke"):
+        run_optimize(config, tmp_path / "out", plot=False)
+    assert stopped.wait(20.0)
+    assert not (tmp_path / "out" / "opt.zarr").exists()

@@ -238,6 +238,7 @@ def optimise(
     solver: SolverOptions = SolverOptions(),
     newton: NewtonOptions = NewtonOptions(),
     progress=None,
+    before_running=None,
 ) -> Path:
     """Run ``problem`` from every start at once.
 
@@ -248,11 +249,22 @@ def optimise(
             have its own value of a fixed parameter, e.g. one foot length each).
         starts: ``(S, n_p)`` initial values of the optimised parameters, inside the bounds.
         progress: called with the row index after each evaluation.
+        before_running: called once the programs are compiled (ahead of time,
+            for the starts' shapes), before the first evaluation runs: the
+            caller's own work (``jaxwalk optimize``'s background grid) may use
+            the cores while XLA compiles, and is waited for here, so that no two
+            programs run at once (jaxlib's batched LAPACK kernels, as the
+            optimiser's eigenvalues of thousands of starts, split over the
+            thread pool and can wait on it for good when every pool thread runs
+            a program: jaxwalk.mechanics).
     """
     setup = _setup(model, problem, fixed, starts.shape[0], solver, newton)
     opt = make_optimizer(problem)
     opt_update = jax.jit(jax.vmap(opt.update))  # one optimiser per start: norms are per start
     run = _begin(setup, opt, starts)
+    if before_running is not None:
+        setup = _compiled(setup, run)
+        before_running()
     rows = problem.iterations + 1
     path = _empty_path(rows, starts.shape, setup)
     for k in range(rows):
@@ -281,6 +293,23 @@ def _setup(model, problem: Problem, fixed, n_start: int, solver, newton) -> _Set
     )
 
 
+def _compiled(setup: _Setup, run: _Starts) -> _Setup:
+    """``setup`` with its jitted programs compiled for the starts' shapes (every
+    iteration calls them with the same shapes); stand-ins without ``lower`` kept."""
+    batch, v0 = _arguments(setup, run)
+    aot = lambda fn: fn.lower(batch, v0).compile() if hasattr(fn, "lower") else fn
+    extra = None if setup.extra_fn is None else aot(setup.extra_fn)
+    return dataclasses.replace(setup, program=aot(setup.program), extra_fn=extra)
+
+
+def _arguments(setup: _Setup, run: _Starts) -> tuple[dict, jax.Array]:
+    """The programs' arguments at every start's point: ``(params batch, v0 (S, n_v))``."""
+    p = setup.lo + setup.width * run.x
+    names = setup.problem.names
+    batch = {**{n: jnp.asarray(p[:, i]) for i, n in enumerate(names)}, **{n: jnp.asarray(v) for n, v in setup.fixed.items()}}
+    return batch, jnp.asarray(run.v0)
+
+
 def _begin(setup: _Setup, opt, starts: np.ndarray) -> _Starts:
     """Every start at its initial point, Newton from the model's guess there."""
     n_start = starts.shape[0]
@@ -299,9 +328,8 @@ def _begin(setup: _Setup, opt, starts: np.ndarray) -> _Starts:
 def _evaluate(setup: _Setup, run: _Starts) -> _Evaluation:
     """The gait, the objective and the Lagrangian's gradient at every start's point."""
     problem, width = setup.problem, setup.width
-    p = setup.lo + width * run.x
-    batch = {**{n: jnp.asarray(p[:, i]) for i, n in enumerate(problem.names)}, **{n: jnp.asarray(v) for n, v in setup.fixed.items()}}
-    sens = setup.program(batch, jnp.asarray(run.v0))
+    batch, v0 = _arguments(setup, run)
+    sens = setup.program(batch, v0)
     status = np.asarray(sens.status).astype(np.int8)
     # Newton again from the gait just found: one iteration.
     v_found = np.where(np.isfinite(np.asarray(sens.metrics.v)), np.asarray(sens.metrics.v), run.v0)

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import dataclasses
 import warnings
+import threading
 from pathlib import Path as FilePath
 
 import numpy as np
@@ -66,8 +67,13 @@ def load_heatmap(path, names) -> xr.Dataset:
     ).load()
 
 
-def compute_heatmap(config: OptimizeConfig, model, solver, newton) -> xr.Dataset | None:
-    """The ``[heatmap]`` grid by :func:`jaxwalk.grid.analyse_grid` (``None`` without axes)."""
+class _Stopped(Exception):
+    """The background grid was cancelled (:meth:`_Background.cancel`)."""
+
+
+def compute_heatmap(config: OptimizeConfig, model, solver, newton, stop: threading.Event | None = None) -> xr.Dataset | None:
+    """The ``[heatmap]`` grid by :func:`jaxwalk.grid.analyse_grid` (``None`` without axes);
+    with ``stop``, ended (``_Stopped``) after the first chunk done once it is set."""
     if not config.heatmap:
         return None
     from jaxwalk.grid import AnalysisOptions, analyse_grid
@@ -78,7 +84,12 @@ def compute_heatmap(config: OptimizeConfig, model, solver, newton) -> xr.Dataset
     fixed = {k: v for k, v in first.items() if k not in grid}
     # The sweep's default chunks, on every worker thread (docs/optimize.md).
     options = AnalysisOptions(solver=solver, newton=newton)
-    out = analyse_grid(model, fixed, grid, config.heatmap_continuation, options)
+
+    def check(_done: int) -> None:
+        if stop is not None and stop.is_set():
+            raise _Stopped
+
+    out = analyse_grid(model, fixed, grid, config.heatmap_continuation, options, check)
     dims = [f"heatmap_{a}" for a in grid]
     coords = {f"heatmap_{a}": (f"heatmap_{a}", v, {"long_name": model.param_specs[a].description, "units": model.param_specs[a].units}) for a, v in grid.items()}
     return xr.Dataset(
@@ -153,6 +164,46 @@ def describe_heatmap(heatmap: xr.Dataset) -> xr.Dataset:
     return heatmap
 
 
+class _Background:
+    """``fn(*args)`` (:func:`compute_heatmap`) on a thread of its own, beside the optimisation.
+
+    The background grid is independent of the path, so a cold run compiles both
+    programs at once: XLA compiles the optimiser's second-order program on one
+    core for minutes, and the grid's program compiles and runs on the other
+    meanwhile; the optimiser waits for the grid before its first evaluation, so
+    no two programs run at once (:func:`~jaxwalk.optimize.engine.optimise`'s
+    ``before_running``; docs/optimize.md). The thread is a daemon, so an
+    interrupted or failed optimisation ends the process without waiting for the
+    grid; :meth:`cancel` also stops it at its next chunk where the process goes
+    on (a notebook).
+    """
+
+    def __init__(self, fn, *args):
+        self._stop = threading.Event()
+        self._result, self._error = None, None
+        self._thread = threading.Thread(target=self._run, args=(fn, args), name="jaxwalk-background", daemon=True)
+        self._thread.start()
+
+    def _run(self, fn, args) -> None:
+        try:
+            self._result = fn(*args, stop=self._stop)
+        except BaseException as err:  # handed to the caller by result()
+            self._error = err
+
+    def done(self) -> bool:
+        return not self._thread.is_alive()
+
+    def cancel(self) -> None:
+        self._stop.set()
+
+    def result(self):
+        """The grid, once computed; its exception, raised here, where it failed."""
+        self._thread.join()
+        if self._error is not None:
+            raise self._error
+        return self._result
+
+
 def run_optimize(config: OptimizeConfig, out_dir, *, heatmap_path=None, heatmap: bool = True, plot: bool = True,
                  overwrite: bool = False, command: str | None = None, progress: bool = False) -> tuple[FilePath, xr.Dataset]:
     """Check the outputs, optimise, compute or load the background, write dataset and figure."""
@@ -167,14 +218,28 @@ def run_optimize(config: OptimizeConfig, out_dir, *, heatmap_path=None, heatmap:
     from tqdm.auto import tqdm
 
     desc = f"{config.name} (the first run of a model compiles; cached afterwards)"
-    with tqdm(total=config.problem.iterations + 1, unit="it", desc=desc, disable=not progress, file=sys.stderr) as bar:
-        path = optimise(
-            model, config.problem, config.fixed_per_start(), config.starts, solver, newton, progress=lambda k: bar.update(1)
-        )
-    if background is None and heatmap:
-        if progress:
-            print(f"computing the background grid ({int(np.prod([len(a.values) for a in config.heatmap]))} points)", file=sys.stderr, flush=True)
-        background = compute_heatmap(config, model, solver, newton)
+    beside = _Background(compute_heatmap, config, model, solver, newton) if background is None and heatmap and config.heatmap else None
+    if beside is not None and progress:
+        print(f"computing the background grid ({int(np.prod([len(a.values) for a in config.heatmap]))} points) while the optimiser compiles",
+              file=sys.stderr, flush=True)
+
+    def wait_for_background() -> None:  # the optimiser's programs are compiled; none of them has run
+        if progress and not beside.done():
+            tqdm.write("waiting for the background grid", file=sys.stderr)
+        beside.result()
+
+    try:
+        with tqdm(total=config.problem.iterations + 1, unit="it", desc=desc, disable=not progress, file=sys.stderr) as bar:
+            path = optimise(
+                model, config.problem, config.fixed_per_start(), config.starts, solver, newton, progress=lambda k: bar.update(1),
+                before_running=None if beside is None else wait_for_background,
+            )
+    except BaseException:
+        if beside is not None:
+            beside.cancel()
+        raise
+    if beside is not None:
+        background = beside.result()
     ds = build_dataset(config, model, path, background, command)
     write_zarr(ds, target, overwrite=overwrite)
     if plot:
