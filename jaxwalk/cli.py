@@ -420,8 +420,12 @@ def _configure_cache(args: argparse.Namespace) -> None:
 
 
 def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
-    """Warnings as the command line's other messages: one line, no source."""
-    print(f"{PROG}: warning: {' '.join(str(message).split())}", file=sys.stderr if file is None else file)
+    """Warnings as the command line's other messages: one line, no source; above
+    any progress bar (a warning from a worker or background thread would
+    otherwise split the bar's line)."""
+    from tqdm import tqdm
+
+    tqdm.write(f"{PROG}: warning: {' '.join(str(message).split())}", file=sys.stderr if file is None else file)
 
 
 # ---------------------------------------------------------------- parser
