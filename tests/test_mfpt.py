@@ -135,3 +135,23 @@ def test_monte_carlo_refuses_bad_counts_with_one_line(kwargs, words):
     model = get_model("simplest")
     with pytest.raises(ConfigError, match=words):
         monte_carlo(model, {"gamma": 0.009}, np.zeros(len(model.section_names)), 1e-4, **kwargs)
+
+
+
+def test_a_chain_in_which_every_step_fails_has_dominant_eigenvalue_zero_not_a_crash():
+    """Where every sampled step from every mesh state fails (a gait at a failure
+    edge, h_max 0: met on the shoe walker's foot plane at sigma 0.005), the
+    chain's matrix is zero: ARPACK stopped on it ("starting vector is zero"),
+    which ended a 35-minute sweep. Its dominant eigenvalue is 0, its escape
+    weights uniform; a non-zero matrix still gets its Perron pair."""
+    import scipy.sparse
+
+    from jaxwalk.global_stability.mfpt import _dominant_eigenvalue
+
+    lam, pi = _dominant_eigenvalue(scipy.sparse.csr_matrix((6, 6)))
+    assert lam == 0.0 and np.allclose(pi, 1.0 / 6)
+    q = scipy.sparse.csr_matrix(np.array([[0.5, 0.2, 0.0], [0.1, 0.6, 0.1], [0.0, 0.3, 0.4]]))
+    lam, pi = _dominant_eigenvalue(q)
+    w, vl = np.linalg.eig(q.toarray().T)
+    k = np.argmax(np.abs(w))
+    assert abs(lam - abs(w[k])) < 1e-12 and np.allclose(pi, np.abs(vl[:, k]) / np.abs(vl[:, k]).sum(), atol=1e-10)

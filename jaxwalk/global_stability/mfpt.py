@@ -283,6 +283,12 @@ def _dominant_eigenvalue(q) -> tuple[float, np.ndarray]:
     """Largest eigenvalue of the non-negative ``q`` (Perron: real, non-negative) and its left
     eigenvector normalised to a distribution (the quasi-stationary distribution)."""
     n = q.shape[0]
+    if q.count_nonzero() == 0:
+        # Every sampled step from every mesh state fails (a gait at the edge of
+        # a failure, h_max 0): no mass stays in the chain, lambda_d = 0, and no
+        # distribution is quasi-stationary; the escape is weighted uniformly.
+        # (ARPACK stops on it: q^T maps its start vector to zero.)
+        return 0.0, np.full(n, 1.0 / n)
     # A fixed, positive start vector (ARPACK's default is random): reruns give
     # the same numbers bit for bit, and a Perron vector is positive anyway.
     vals, vecs = scipy.sparse.linalg.eigs(q.T.tocsr(), k=1, which="LM", tol=1e-12, maxiter=100_000, v0=np.full(n, 1.0 / n))
