@@ -16,8 +16,8 @@ Outputs, in ``--out DIR``:
 from __future__ import annotations
 
 import dataclasses
-import warnings
 import threading
+import warnings
 from pathlib import Path as FilePath
 
 import numpy as np
