@@ -137,12 +137,12 @@ def test_monte_carlo_refuses_bad_counts_with_one_line(kwargs, words):
         monte_carlo(model, {"gamma": 0.009}, np.zeros(len(model.section_names)), 1e-4, **kwargs)
 
 
-
 def test_a_chain_in_which_every_step_fails_has_dominant_eigenvalue_zero_not_a_crash():
-    """Where every sampled step from every mesh state fails (a gait at a failure
-    edge, h_max 0: met on the shoe walker's foot plane at sigma 0.005), the
-    chain's matrix is zero: ARPACK stopped on it ("starting vector is zero"),
-    which ended a 35-minute sweep. Its dominant eigenvalue is 0, its escape
+    """Where every sampled step from every mesh state fails (met on the shoe
+    walker's foot plane at sigma 0.005: the coarse chain of the unstable gait at
+    l_f 0.2935, r 0.158, lambda_max 1.49, had no non-zero entry), the chain's
+    matrix is zero: ARPACK stopped on it ("starting vector is zero"), which
+    ended a 35-minute sweep. Its dominant eigenvalue is 0, its escape
     weights uniform; a non-zero matrix still gets its Perron pair."""
     import scipy.sparse
 

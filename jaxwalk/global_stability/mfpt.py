@@ -284,10 +284,11 @@ def _dominant_eigenvalue(q) -> tuple[float, np.ndarray]:
     eigenvector normalised to a distribution (the quasi-stationary distribution)."""
     n = q.shape[0]
     if q.count_nonzero() == 0:
-        # Every sampled step from every mesh state fails (a gait at the edge of
-        # a failure, h_max 0): no mass stays in the chain, lambda_d = 0, and no
-        # distribution is quasi-stationary; the escape is weighted uniformly.
-        # (ARPACK stops on it: q^T maps its start vector to zero.)
+        # Every sampled step from every mesh state fails (met: the coarse chain
+        # of an unstable shoe-walker gait, lambda_max 1.49, at sigma 0.005):
+        # no mass stays in the chain, lambda_d = 0, and no distribution is
+        # quasi-stationary; the escape is weighted uniformly. (ARPACK stops on
+        # it: q^T maps its start vector to zero.)
         return 0.0, np.full(n, 1.0 / n)
     # A fixed, positive start vector (ARPACK's default is random): reruns give
     # the same numbers bit for bit, and a Perron vector is positive anyway.
