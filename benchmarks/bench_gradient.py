@@ -39,6 +39,7 @@ import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 
 import jaxwalk  # noqa: E402,F401  (float64)
+from jaxwalk import compiling  # noqa: E402
 from jaxwalk.gait import NewtonOptions, find_gait  # noqa: E402
 from jaxwalk.models import get_model  # noqa: E402
 from _walkers import benchmark_params  # noqa: E402
@@ -78,7 +79,8 @@ def main() -> None:
     params, v0 = batch(model, args.n)
     solver, newton = SolverOptions(), NewtonOptions()
 
-    evaluate = jax.jit(jax.vmap(lambda p, v: find_gait(model, p, v, solver, newton)))
+    # Both compiled as jaxwalk compiles the model's programs (jaxwalk.compiling).
+    evaluate = compiling.jit(jax.vmap(lambda p, v: find_gait(model, p, v, solver, newton)), model)
     gradient = sensitivity_program(model, names, solver, newton)
     result = {"model": args.model, "n": args.n, "names": list(names), "repeat": args.repeat}
     compiled = {}

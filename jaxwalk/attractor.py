@@ -35,7 +35,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Complex, Float, Int8, Int32
 
-from jaxwalk import mechanics, program_cache
+from jaxwalk import compiling, mechanics, program_cache
 from jaxwalk.gait import Gait, GaitStats, NewtonOptions, value_and_jacfwd
 from jaxwalk.status import Status
 from jaxwalk.step import SolverOptions, step_map
@@ -478,6 +478,6 @@ def _attractor_program(model: Walker, settings: AttractorOptions, solver: Solver
                     stats=GaitStats.none())
         return find_attractor(model, p, gait, settings, solver, newton)
 
-    program = jax.jit(over_rows(one, min(model.lockstep_batch, WALK_SUB_BATCH)))
+    program = compiling.jit(over_rows(one, min(model.lockstep_batch, WALK_SUB_BATCH)), model)
     program_cache.register(program, "attractor", model, solver, newton, settings)
     return program

@@ -41,6 +41,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Complex, Float, Int, Int8
 
+from jaxwalk import compiling
 from jaxwalk.attractor import AttractorOptions, find_cycle, minimal_period, spectrum
 from jaxwalk.batching import Rows, over_rows, run_chunks, sub_batch_size
 from jaxwalk.gait import NewtonOptions
@@ -153,7 +154,7 @@ def _solver(model: Walker, k: int, solver: SolverOptions, newton: NewtonOptions)
         status = jnp.where((status == Status.OK) & shorter, jnp.int8(Status.CYCLE_NOT_FOUND), status)
         return status, points[0], eig
 
-    return jax.jit(over_rows(one, sub_batch_size(model, solver)))
+    return compiling.jit(over_rows(one, sub_batch_size(model, solver)), model)
 
 
 def _evaluate(model, k, solver, newton, params: Mapping[str, np.ndarray], v0: np.ndarray):

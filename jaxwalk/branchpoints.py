@@ -36,6 +36,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxwalk import compiling
 from jaxwalk.arclength import ArclengthOptions, Branch, CycleProblem, continue_branch, correct
 from jaxwalk.bifurcation import Kind, indicators
 from jaxwalk.status import Status
@@ -82,7 +83,7 @@ def _corrector(problem, options: ArclengthOptions):
         u, jac, status, _ = correct(residual, u_base + s * t_base, u_base, t_base, s, options)
         return u, jac, status
 
-    return jax.jit(jax.vmap(one))
+    return compiling.jit(jax.vmap(one), problem.model)
 
 
 def solve_at(problem, options, params, u_base, t_base, s):

@@ -20,7 +20,7 @@ from typing import Callable, Mapping
 import jax
 import numpy as np
 
-from jaxwalk import program_cache
+from jaxwalk import compiling, program_cache
 from jaxwalk.analyses.gait import OUTPUTS as GAIT_OUTPUTS
 from jaxwalk.attractor import AttractorOptions
 from jaxwalk.batching import sub_batch_size
@@ -76,7 +76,7 @@ def _independent_program(model: Walker, solver: SolverOptions, newton: NewtonOpt
     def one(p, _):
         return find_gait(model, p, model.initial_guess(p), solver, newton)
 
-    program = jax.jit(over_rows(one, sub_batch_size(model, solver)))
+    program = compiling.jit(over_rows(one, sub_batch_size(model, solver)), model)
     program_cache.register(program, "independent", model, solver, newton)
     return program
 

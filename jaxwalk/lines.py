@@ -20,7 +20,7 @@ import jax
 import numpy as np
 from jaxtyping import Array, Bool, Float
 
-from jaxwalk import program_cache
+from jaxwalk import compiling, program_cache
 from jaxwalk.batching import Rows, in_sub_batches, run_chunks, sub_batch_size
 from jaxwalk.continuation import LineCarry, continue_segment, fresh_carry, visiting_order
 from jaxwalk.gait import Gait, NewtonOptions
@@ -66,7 +66,7 @@ def segment_program(model: Walker, solver: SolverOptions, newton: NewtonOptions)
         # benchmarks/README.md).
         return in_sub_batches(lambda r: line(*r, valid), (rows.params, rows.inputs), sub_batch_size(model, solver), rows.valid)
 
-    program = jax.jit(program)
+    program = compiling.jit(program, model)
     program_cache.register(program, "continuation", model, solver, newton)
     return program
 

@@ -35,7 +35,7 @@ import jax
 import numpy as np
 from jax import export
 
-from jaxwalk import cache
+from jaxwalk import cache, compiling
 from jaxwalk.continuation import LineCarry
 from jaxwalk.files import write_atomically
 from jaxwalk.gait import Gait, GaitStats
@@ -81,9 +81,12 @@ counts = {"traced": 0, "loaded": 0}
 def register(program, kind: str, model, *settings) -> None:
     """Name ``program`` (a jitted function) for the disk cache: ``kind`` (which
     factory made it), the model (its class, name and lockstep batch) and the
-    settings it closes over (dataclasses; their ``repr`` holds every field)."""
+    settings it closes over (dataclasses; their ``repr`` holds every field);
+    also the model's compiler options, which the exported program is compiled
+    with (:mod:`jaxwalk.compiling`)."""
     model_id = f"{type(model).__module__}.{type(model).__qualname__}:{model.name}:{model.lockstep_batch}:{sorted(vars(model).items())!r}"
-    _identities[program] = (kind, model_id, tuple(repr(s) for s in settings), type(model))
+    _identities[program] = (kind, model_id, tuple(repr(s) for s in settings), type(model),
+                            compiling.compiler_options(model))
 
 
 def cache_directory() -> Path | None:
@@ -133,7 +136,7 @@ def program_key(program, args) -> str | None:
     identity = _identities.get(program)
     if identity is None:
         return None
-    kind, model_id, settings, model_class = identity
+    kind, model_id, settings, model_class, _ = identity  # the compiler options do not change the trace
     leaves, tree = jax.tree_util.tree_flatten(args)
     signature = [(tuple(np.shape(x)), str(np.result_type(x))) for x in leaves]  # as workers.executable's key
     h = hashlib.sha256()
@@ -205,4 +208,6 @@ def lower(program, args):
         _save(path, exported)
     else:
         counts["loaded"] += 1
-    return jax.jit(exported.call).lower(args)
+    # The model's compiler options (jaxwalk.compiling): the exported program is
+    # compiled here, not by the jit it was traced from.
+    return jax.jit(exported.call, compiler_options=_identities[program][4]).lower(args)

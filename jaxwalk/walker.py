@@ -117,6 +117,8 @@ class Walker:
         carry_step: whether a phase starts with the step the controller
             proposed at the end of the phase before, where the solver settings
             do not say (:attr:`jaxwalk.stepbase.SolverOptions.carry_step`).
+        cpu_fusion_emitters: whether XLA's CPU fusion emitters compile the
+            model's programs (:mod:`jaxwalk.compiling`).
 
     Models are compared and hashed by value, their class and instance
     attributes (which must be hashable): every jitted program closes over its
@@ -169,6 +171,12 @@ class Walker:
     #: (benchmarks/bench_first_step.py); the simplest walker's own setting
     #: says why it does not.
     carry_step: bool = True
+    #: XLA's CPU fusion emitters for this model's programs (XLA's default); False:
+    #: its elemental emitters, measured per model (:mod:`jaxwalk.compiling`,
+    #: benchmarks/bench_compile_options.py): they compile every walker's gait
+    #: search 1.2-1.9x faster, run the flat-foot walker's as fast and the kneed
+    #: walker's 2-3 % slower, but the passive walkers' 64-wide batches 1.5x slower.
+    cpu_fusion_emitters: bool = True
 
     def _identity(self) -> tuple:
         return type(self), tuple(sorted(vars(self).items()))

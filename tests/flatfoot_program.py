@@ -7,9 +7,12 @@ compile twice; the ``jvp``'s primal is the step map).
 
 from __future__ import annotations
 
+import functools
+
 import jax
 import jax.numpy as jnp
 
+from jaxwalk import compiling
 from jaxwalk.gait import failure_cause
 from jaxwalk.models import get_model
 from jaxwalk.models.flatfoot.model import PAPER_PARAMS
@@ -22,7 +25,9 @@ LEVEL = jnp.zeros((), jnp.float64)
 NO_TANGENT = jnp.zeros(2, jnp.float64)
 
 
-@jax.jit
+# Compiled as a sweep compiles the walker's programs (jaxwalk.compiling): the
+# numbers these tests check are the ones a sweep computes, and it compiles 1.6x faster.
+@functools.partial(compiling.jit, model=MODEL)
 def STEP_PROGRAM(v, dv, params, drop):
     """``(v, dv, params, drop) -> (v_next, StepResult, dv_next)``: one step onto
     ground ``drop`` lower and its forward derivative along ``dv``."""

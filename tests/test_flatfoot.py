@@ -20,7 +20,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from jaxwalk import mechanics
+from jaxwalk import compiling, mechanics
 from jaxwalk.models import get_model
 from jaxwalk.models.flatfoot import clearance as cl
 from jaxwalk.models.flatfoot import events as ev
@@ -381,7 +381,7 @@ def test_h_max_is_the_first_failed_drop_of_single_trials(params, fixed_point, dr
     # step's status. A drop of 0 keeps walking on the cycle.
     options = StepDownOptions(dh=0.002, count=10, n_steps=6)
     v_star = jnp.asarray(fixed_point[0])
-    batched = jax.jit(jax.vmap(lambda v_: h_max(MODEL, params, v_, options)))(v_star[None])
+    batched = compiling.jit(jax.vmap(lambda v_: h_max(MODEL, params, v_, options)), MODEL)(v_star[None])
 
     def trial(h):
         """``(survived, status of the first failed step or OK, steps completed)``."""

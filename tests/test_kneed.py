@@ -20,6 +20,7 @@ import numpy as np
 import optimistix as optx
 import pytest
 
+from jaxwalk import compiling
 from jaxwalk.models import get_model, kneed
 from jaxwalk.models.kneed import KneedStopWalker, KneedWalker
 from jaxwalk.status import Status
@@ -49,7 +50,7 @@ def gait(params):
         v_next, res = step_map(MODEL, v, params)
         return v_next - v, (v_next, res)
 
-    jac = jax.jit(jax.jacfwd(residual, has_aux=True))
+    jac = compiling.jit(jax.jacfwd(residual, has_aux=True), MODEL)  # as a sweep compiles it
     v = MODEL.initial_guess(params)
     for _ in range(8):
         j, (v_next, _) = jac(v)
@@ -281,7 +282,7 @@ def test_jacobian_matches_central_differences(gait, params):
     # Differences of the map at tight tolerances (its noise, ~1e-12, over h is
     # 1e-7); the forward-mode Jacobian is the one of the default tolerances.
     opts = SolverOptions(rtol=1e-12, atol=1e-12, max_solver_steps=8192)
-    step = jax.jit(lambda v: step_map(MODEL, v, params, opts)[0])
+    step = compiling.jit(lambda v: step_map(MODEL, v, params, opts)[0], MODEL)
     h = 1e-5
     fd = np.stack([(step(gait.v + h * e) - step(gait.v - h * e)) / (2 * h) for e in jnp.eye(3)], axis=1)
     scale = np.max(np.abs(gait.jacobian))

@@ -22,7 +22,7 @@ from typing import Any, Callable, Mapping, NamedTuple
 
 import numpy as np
 
-from jaxwalk import outputs as schema
+from jaxwalk import compiling, outputs as schema
 from jaxwalk.configs import Table, did_you_mean as did_you_mean  # where plug-ins found it
 from jaxwalk.outputs import Output
 
@@ -124,13 +124,15 @@ def row_program(one: Callable, sub_batch: int, kind: str, model, *settings):
     """``jit``: :class:`~jaxwalk.batching.Rows` -> ``one(params, inputs)`` for every row,
     ``sub_batch`` rows advancing together (:func:`jaxwalk.batching.over_rows`), named
     for the disk cache (:func:`jaxwalk.program_cache.register`: ``kind``, the model,
-    the settings it closes over)."""
+    the settings it closes over), compiled with the model's options
+    (:mod:`jaxwalk.compiling`): a top-level program, not to be traced inside
+    another ``jit``."""
     import jax
 
     from jaxwalk import program_cache
     from jaxwalk.batching import over_rows
 
-    program = jax.jit(over_rows(one, sub_batch))
+    program = compiling.jit(over_rows(one, sub_batch), model)
     program_cache.register(program, kind, model, *settings)
     return program
 

@@ -22,6 +22,7 @@ from typing import NamedTuple
 import numpy as np
 import xarray as xr
 
+from jaxwalk import compiling
 from jaxwalk.basin.config import BasinConfig
 from jaxwalk.models import get_model
 from jaxwalk.simulate.start import GaitNotFound, find_start_gait
@@ -88,7 +89,7 @@ def _fate_program(model, options, solver):
                            valid=rows.valid, solver=solver)
         return jax.vmap(lambda e, target, scale: fate_of(e, target[None], scale))(end, start.target, start.scale)
 
-    program = jax.jit(program)
+    program = compiling.jit(program, model)
     program_cache.register(program, "basin_fate", model, options, solver)
     return program
 

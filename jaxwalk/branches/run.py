@@ -22,6 +22,7 @@ import jax.numpy as jnp
 import numpy as np
 import xarray as xr
 
+from jaxwalk import compiling
 from jaxwalk.arclength import ArclengthOptions, Branch, CycleProblem, STOP_MEANINGS, continue_branch, start_direction
 from jaxwalk.bifurcation import KIND_MEANINGS, Kind
 from jaxwalk.branches.config import ContinueConfig
@@ -46,7 +47,7 @@ def run_branches(config: ContinueConfig):
         v0 = model.initial_guess(p)
         return continue_branch(problem, p, v0, p[config.parameter], start_direction(v0.shape[0], config.direction), 0.0, lo, hi, config.options)
 
-    first = jax.tree_util.tree_map(np.asarray, jax.jit(jax.vmap(one))(params))
+    first = jax.tree_util.tree_map(np.asarray, compiling.jit(jax.vmap(one), model)(params))
     labels = locate_on_branches(problem, params, first, tol=config.tol, options=config.options)
     parts, periods, origins = [first], [config.period] * len(starts), [-1] * len(starts)
     flips = np.flatnonzero((labels.kind == Kind.FLIP) & (labels.status == 0)) if config.switch_branches else []
@@ -66,7 +67,7 @@ def _switch(problem, config: ContinueConfig, labels: BranchPoints, flips: np.nda
     params = {k: jnp.full(len(flips), v) for k, v in config.fixed.items()}
     params[config.parameter] = jnp.asarray(labels.parameter[flips])
     run = jax.vmap(lambda p, v, w, x: switch_at_flip(problem, p, v, w, x, lo, hi, config.switch_eps, 1.0, opts))
-    out = jax.jit(run)(params, jnp.asarray(labels.v[flips]), jnp.asarray(labels.eigenvector[flips]), jnp.asarray(labels.parameter[flips]))
+    out = compiling.jit(run, problem.model)(params, jnp.asarray(labels.v[flips]), jnp.asarray(labels.eigenvector[flips]), jnp.asarray(labels.parameter[flips]))
     return dataclasses.replace(problem, k=2 * problem.k), params, jax.tree_util.tree_map(np.asarray, out)
 
 

@@ -19,6 +19,7 @@ import json
 
 import numpy as np
 
+from jaxwalk import compiling
 from jaxwalk.simulate.output import check_drawable
 from jaxwalk.simulate.recorder import AFTER_EVENT, BEFORE_EVENT
 from jaxwalk.walker import Walker, as_params
@@ -91,7 +92,7 @@ def _drawing_fn(model: Walker):
     def one(params, q, ctx):
         return model.skeleton(q, params, ctx), model.foot_points(q, params, ctx), model.points(q, params)
 
-    return jax.jit(jax.vmap(one, in_axes=(None, 0, 0)))
+    return compiling.jit(jax.vmap(one, in_axes=(None, 0, 0)), model)
 
 
 def _by_physical_leg(a: np.ndarray, step: np.ndarray) -> np.ndarray:

@@ -55,7 +55,7 @@ import scipy.sparse
 import scipy.sparse.linalg
 from scipy.special import ndtr
 
-from jaxwalk import program_cache
+from jaxwalk import compiling, program_cache
 from jaxwalk.batching import Rows, over_rows, run_chunks, sub_batch_size
 from jaxwalk.global_stability.sensitivity_norm import linearise, observability_gramian
 from jaxwalk.status import Status
@@ -170,14 +170,14 @@ def _step_program(model: Walker, solver: SolverOptions):
         v_next, res = step_map(model, t.v, p, solver, ground_drop=t.drop)
         return v_next, res.status
 
-    program = jax.jit(over_rows(one, max(sub_batch_size(model, solver), MIN_STEP_SUB_BATCH)))
+    program = compiling.jit(over_rows(one, max(sub_batch_size(model, solver), MIN_STEP_SUB_BATCH)), model)
     program_cache.register(program, "mfpt_transitions", model, solver)
     return program
 
 
 @functools.lru_cache(maxsize=None)
 def _linearise_program(model: Walker, solver: SolverOptions):
-    return jax.jit(lambda p, v: linearise(model, p, v, solver=solver))
+    return compiling.jit(lambda p, v: linearise(model, p, v, solver=solver), model)
 
 
 def _transitions(mesh: Mesh, v_next: np.ndarray, ok: np.ndarray, weights: np.ndarray, n_src: int | None = None):

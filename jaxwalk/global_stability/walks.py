@@ -27,7 +27,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxwalk import program_cache
+from jaxwalk import compiling, program_cache
 from jaxwalk.batching import Rows, run_chunks, sub_batch_size
 from jaxwalk.errors import ConfigError
 from jaxwalk.status import Status
@@ -267,7 +267,7 @@ def _fall_program(model: Walker, solver: SolverOptions):
                            valid=rows.valid, solver=solver)
         return FallResult(end.steps, end.status)
 
-    program = jax.jit(program)
+    program = compiling.jit(program, model)
     program_cache.register(program, "monte_carlo_walks", model, solver)
     return program
 

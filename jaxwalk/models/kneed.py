@@ -121,6 +121,10 @@ class KneedWalker(Walker):
     basin_scale = (0.031, 0.17, 1.3)
     # stance foot (x, y), stance knee lock, swing knee lock, swing foot (x, y)
     n_constraints = 6
+    # The elemental emitters compile its gait search 1.2-1.4x faster and run
+    # it, 64 configurations together, 2-3 % slower (benchmarks/README.md): a
+    # cold run is mostly compiling.
+    cpu_fusion_emitters = False
     #: Whether the stance knee's lock is a bare stop (pushes only) rather than a latch.
     stance_knee_stop: bool = False
 

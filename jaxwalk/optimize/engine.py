@@ -42,7 +42,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxwalk import analyses
+from jaxwalk import analyses, compiling
 from jaxwalk.analyses import gait
 from jaxwalk.gait import NewtonOptions
 from jaxwalk.sensitivity import gait_sensitivity
@@ -66,7 +66,7 @@ def extra_program(model: Walker, names: tuple[str, ...], solver: SolverOptions, 
     :data:`EXTRA_QUANTITIES`, each by its analysis (:meth:`jaxwalk.analyses.base.Analysis.gradient`;
     the gait sensitivity norm: :mod:`jaxwalk.global_stability.sensitivity_norm`)."""
     fns = {q: a.gradient(q, model, names, solver, newton) for q, a in OWNERS.items()}
-    return jax.jit(jax.vmap(lambda p, v0: {q: f(p, v0) for q, f in fns.items()}))
+    return compiling.jit(jax.vmap(lambda p, v0: {q: f(p, v0) for q, f in fns.items()}), model)
 
 
 @functools.lru_cache(maxsize=None)
@@ -74,10 +74,13 @@ def sensitivity_program(model: Walker, names: tuple[str, ...], solver: SolverOpt
     """``jit(vmap(gait_sensitivity))``: ``(params batch, v0 (B, n_v)) -> Sensitivity`` batched.
 
     Cached per ``(model, names, solver, newton)``, so the optimiser, the tests and
-    the benchmark share one compiled program per batch shape.
+    the benchmark share one compiled program per batch shape. A top-level
+    program with the model's compiler options (:mod:`jaxwalk.compiling`): call
+    it, lower it or ``vmap`` it, but not inside another ``jit``, ``grad`` or
+    ``lax.map`` (JAX refuses options there, for the walkers that have them).
     """
     one = lambda p, v0: gait_sensitivity(model, p, v0, names, solver, newton)
-    return jax.jit(jax.vmap(one))
+    return compiling.jit(jax.vmap(one), model)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -19,6 +19,7 @@ import math
 
 import numpy as np
 
+from jaxwalk import compiling
 from jaxwalk.status import Status
 from jaxwalk.walker import Walker
 
@@ -114,7 +115,8 @@ def _compiled(model: Walker, opts):
     def section(params, y, ctx):
         return model.state_to_section(y, params, ctx)
 
-    return jax.jit(advance), jax.jit(sample), jax.jit(observe), jax.jit(section)
+    jit = lambda fn: compiling.jit(fn, model)
+    return jit(advance), jit(sample), jit(observe), jit(section)
 
 
 def _padded(n: int) -> int:

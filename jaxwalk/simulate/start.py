@@ -13,6 +13,7 @@ import functools
 
 import numpy as np
 
+from jaxwalk import compiling
 from jaxwalk.errors import ConfigError
 from jaxwalk.walker import Walker
 
@@ -27,7 +28,7 @@ def _gait_search(model: Walker, solver, newton):
 
     from jaxwalk.gait import find_gait
 
-    return jax.jit(lambda params, v0: find_gait(model, params, v0, solver, newton))
+    return compiling.jit(lambda params, v0: find_gait(model, params, v0, solver, newton), model)
 
 
 def find_start_gait(model: Walker, params, solver=None, newton=None):

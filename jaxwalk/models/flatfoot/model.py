@@ -154,6 +154,11 @@ class FlatFootWalker(Walker):
     # devices, benchmarks/README.md): 690 s at 8 lines per batch, 110 s at 2,
     # 53 s at 1; on uniform batches vmap gains at most 1.7x (bench_flatfoot.py).
     lockstep_batch = 1
+    # One configuration at a time leaves the fusion emitters' vectorised loops
+    # nothing to do: the elemental emitters compile the gait search 1.3-1.7x
+    # faster and run it as fast; the 64 x 64 map takes half the memory
+    # (benchmarks/README.md).
+    cpu_fusion_emitters = False
 
     # ------------------------------------------------------------ mechanics
     def points(self, q, params):
