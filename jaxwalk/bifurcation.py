@@ -36,7 +36,6 @@ import enum
 import functools
 from typing import Mapping, NamedTuple
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Complex, Float, Int, Int8

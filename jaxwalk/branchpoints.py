@@ -83,7 +83,9 @@ def _corrector(problem, options: ArclengthOptions):
         u, jac, status, _ = correct(residual, u_base + s * t_base, u_base, t_base, s, options)
         return u, jac, status
 
-    return compiling.jit(jax.vmap(one), problem.model)
+    # A walker's cycles compile with its options; a problem without a model
+    # (a plain map, as the tests' folds) with XLA's defaults.
+    return compiling.jit(jax.vmap(one), getattr(problem, "model", None))
 
 
 def solve_at(problem, options, params, u_base, t_base, s):

@@ -22,7 +22,7 @@ from typing import Any, Callable, Mapping, NamedTuple
 
 import numpy as np
 
-from jaxwalk import compiling, outputs as schema
+from jaxwalk import outputs as schema
 from jaxwalk.configs import Table, did_you_mean as did_you_mean  # where plug-ins found it
 from jaxwalk.outputs import Output
 
@@ -127,9 +127,7 @@ def row_program(one: Callable, sub_batch: int, kind: str, model, *settings):
     the settings it closes over), compiled with the model's options
     (:mod:`jaxwalk.compiling`): a top-level program, not to be traced inside
     another ``jit``."""
-    import jax
-
-    from jaxwalk import program_cache
+    from jaxwalk import compiling, program_cache
     from jaxwalk.batching import over_rows
 
     program = compiling.jit(over_rows(one, sub_batch), model)

@@ -48,7 +48,6 @@ import dataclasses
 import functools
 from typing import Callable, NamedTuple
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 import scipy.sparse

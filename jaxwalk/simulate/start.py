@@ -24,8 +24,6 @@ class GaitNotFound(ConfigError):
 
 @functools.lru_cache(maxsize=None)
 def _gait_search(model: Walker, solver, newton):
-    import jax
-
     from jaxwalk.gait import find_gait
 
     return compiling.jit(lambda params, v0: find_gait(model, params, v0, solver, newton), model)
