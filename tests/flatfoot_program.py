@@ -26,7 +26,7 @@ NO_TANGENT = jnp.zeros(2, jnp.float64)
 
 
 # Compiled as a sweep compiles the walker's programs (jaxwalk.compiling): the
-# numbers these tests check are the ones a sweep computes, and it compiles 1.6x faster.
+# code generator these tests check is the one a sweep runs, and it compiles 1.3x faster.
 @functools.partial(compiling.jit, model=MODEL)
 def STEP_PROGRAM(v, dv, params, drop):
     """``(v, dv, params, drop) -> (v_next, StepResult, dv_next)``: one step onto
