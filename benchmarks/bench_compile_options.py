@@ -14,7 +14,9 @@ The choice it informs is :attr:`jaxwalk.walker.Walker.cpu_fusion_emitters`
 
     JAXWALK_CACHE_DIR= PYTHONPATH=. taskset -c 0 python benchmarks/bench_compile_options.py [--models flatfoot kneed ...]
 
-Writes ``benchmarks/results/compile_options.json``.
+Writes ``benchmarks/results/compile_options.json``; with ``--batches 1 8 64``
+the gait searches at those batch sizes instead (no step map), to
+``benchmarks/results/compile_options_batches.json``.
 """
 
 from __future__ import annotations
@@ -45,10 +47,11 @@ SPREAD = {"simplest": ("gamma", 0.009, 0.011), "compass": ("gamma", 0.052, 0.053
           "flatfoot": ("r", 0.39, 0.41)}
 
 
-def gait_search(name: str):
-    """``(fn, args, batch)``: the vmapped gait search at the walker's lockstep batch."""
+def gait_search(name: str, batch: int | None = None):
+    """``(fn, args, batch)``: the vmapped gait search of ``batch`` configurations
+    (default: the walker's lockstep batch)."""
     model = get_model(name)
-    batch = model.lockstep_batch
+    batch = model.lockstep_batch if batch is None else batch
     key, lo, hi = SPREAD[name]
     params = {k: jnp.full((batch,), v) for k, v in benchmark_params(model).items()}
     params[key] = jnp.linspace(lo, hi, batch)
@@ -108,13 +111,18 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--models", nargs="+", default=["flatfoot", "kneed", "compass", "simplest"])
     parser.add_argument("--repeat", type=int, default=5)
+    parser.add_argument("--batches", type=int, nargs="+", default=None,
+                        help="gait-search batch sizes to measure (default: each walker's lockstep batch); "
+                             "the results go to compile_options_batches.json")
     args = parser.parse_args()
     rows = []
     for name in args.models:
-        rows.append(measure(f"{name} gait search", *gait_search(name), args.repeat))
-        if name == "flatfoot":
+        for batch in args.batches or [None]:
+            rows.append(measure(f"{name} gait search", *gait_search(name, batch), args.repeat))
+        if name == "flatfoot" and args.batches is None:
             rows.append(measure("flatfoot step map, jvp", *flatfoot_step_jvp(), args.repeat))
-    write_stamped("compile_options", {"rows": rows, "cores": len(os.sched_getaffinity(0))})
+    name = "compile_options" if args.batches is None else "compile_options_batches"
+    write_stamped(name, {"rows": rows, "cores": len(os.sched_getaffinity(0))})
 
 
 if __name__ == "__main__":
