@@ -45,7 +45,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float, Int32
 
 from jaxwalk.status import Status
-from jaxwalk.stepbase import FIRST_STEP, SolverOptions, StepResult, close_phase, guard_offsets
+from jaxwalk.stepbase import FIRST_STEP, SolverOptions, StepResult, close_phase, guard_offsets, state_dependent
 from jaxwalk.walker import Params, Walker
 
 sg = jax.lax.stop_gradient
@@ -299,6 +299,7 @@ def run_step_flat(model: Walker, params: Params, y0: Float[Array, "2*n_q"], phas
         ode_steps=jnp.zeros((), jnp.int32),
         guard=jnp.full((), -1, jnp.int32),
     )
+    carry0 = jax.tree_util.tree_map(lambda x: state_dependent(x, y0), carry0)  # one trace of the body under jvp, vmap
     running = lambda c: c.status == Status.IN_PROGRESS
     c = jax.lax.while_loop(running, lambda c: _advance(model, params, opts, c), carry0)
     return StepResult(c.y, c.ctx, c.phase, c.t, c.length, c.status, c.n_events, c.work, c.ode_steps, c.guard)

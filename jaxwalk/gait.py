@@ -25,6 +25,7 @@ from jaxtyping import Array, Complex, Float, Int8, Int32
 from jaxwalk import mechanics
 from jaxwalk.status import Status
 from jaxwalk.step import SolverOptions, step_map
+from jaxwalk.stepbase import state_dependent
 from jaxwalk.walker import Params, Walker
 
 
@@ -237,6 +238,7 @@ def find_gait(
     carry0 = _Newton(v0, zero, running, jnp.asarray(False), jnp.full((n_v, n_v), jnp.nan, dtype), nan, nan, nan, zero, zero,
                      zero - 1, zero - 1, jnp.full(y0.shape, jnp.nan, y0.dtype), jnp.full(ctx0.shape, jnp.nan, ctx0.dtype),
                      jnp.asarray(fallback.use, bool), zero, jnp.full((), jnp.inf, dtype))
+    carry0 = jax.tree_util.tree_map(lambda x: state_dependent(x, v0), carry0)  # one trace of the body under vmap
     body = _newton_iteration(step_residual(model, params, solver), newton, jnp.eye(n_v, dtype=dtype))
     body = _fall_back(body, v0, fallback)
 

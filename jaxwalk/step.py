@@ -24,7 +24,7 @@ from jaxtyping import Array, ArrayLike, Bool, Float, Int32
 from jaxwalk.flatstep import run_step_flat
 from jaxwalk.rootfind import BracketedNewton
 from jaxwalk.status import Status
-from jaxwalk.stepbase import FIRST_STEP, PhaseEnd, SolverOptions, StepResult, close_phase, guard_offsets  # noqa: F401 (re-exported)
+from jaxwalk.stepbase import FIRST_STEP, PhaseEnd, SolverOptions, StepResult, close_phase, guard_offsets, state_dependent  # noqa: F401 (re-exported)
 from jaxwalk.walker import Params, Walker
 
 
@@ -255,20 +255,21 @@ def run_step(model: Walker, params: Params, y0: Float[Array, "2*n_q"], phase0: I
         return _PhaseLoop(end.t_event, end.y_next, end.phase_next, end.ctx_next, c.length + end.shift, end.status,
                           end.n_events, work, c.ode_steps + ode_steps, jnp.where(end.event_happened, end.guard, -1), dt)
 
-    dtype = y0.dtype
+    zero = jnp.zeros((), y0.dtype)
     c0 = _PhaseLoop(
-        t=jnp.zeros((), dtype),
+        t=zero,
         y=y0,
         phase=jnp.asarray(phase0, jnp.int32),
         ctx=ctx0,
-        length=jnp.zeros((), dtype),
+        length=zero,
         status=in_progress,
         n_events=jnp.zeros((), jnp.int32),
-        work=jnp.zeros((), dtype),
+        work=zero,
         ode_steps=jnp.zeros((), jnp.int32),
         guard=jnp.full((), -1, jnp.int32),
-        dt=jnp.full((), FIRST_STEP, dtype),
+        dt=jnp.full((), FIRST_STEP, y0.dtype),
     )
+    c0 = jax.tree_util.tree_map(lambda x: state_dependent(x, y0), c0)
     c = jax.lax.while_loop(cond, body, c0)
     return StepResult(c.y, c.ctx, c.phase, c.t, c.length, c.status, c.n_events, c.work, c.ode_steps, c.guard)
 
