@@ -121,8 +121,8 @@ def main() -> None:
             rows.append(measure(f"{name} gait search", *gait_search(name, batch), args.repeat))
         if name == "flatfoot" and args.batches is None:
             rows.append(measure("flatfoot step map, jvp", *flatfoot_step_jvp(), args.repeat))
-    name = "compile_options" if args.batches is None else "compile_options_batches"
-    write_stamped(name, {"rows": rows, "cores": len(os.sched_getaffinity(0))})
+    out = "compile_options" if args.batches is None else "compile_options_batches"
+    write_stamped(out, {"rows": rows, "cores": len(os.sched_getaffinity(0))})
 
 
 if __name__ == "__main__":

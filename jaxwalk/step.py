@@ -128,8 +128,9 @@ def solve_phase(model: Walker, params, y, phase, ctx, t0, g0: Float[Array, "n_gu
 # A jit boundary around a phase's solve and around a whole step: JAX caches a
 # jitted function's jvp and vmap of its jaxpr, so the fixpoint iterations of
 # the enclosing while loops' batching and jvp rules (Newton's, the phase
-# loop's), which transform their bodies again and again, transform these only
-# once per distinct input batching. Tracing the simplest walker's
+# loop's; one pass each since their carries are marked state-dependent, more
+# under the transformations of a caller's loops) transform these only once per
+# distinct input batching. Tracing the simplest walker's
 # second-order sensitivity program fell from 66 to 40 s; the compiled program
 # and every number are unchanged (benchmarks/bench_jit_boundaries.py).
 @functools.partial(jax.jit, static_argnums=(0, 7))
