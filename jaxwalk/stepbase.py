@@ -300,9 +300,10 @@ def state_dependent(value: ArrayLike, y: Float[Array, " n"]) -> Array:
     state after one iteration costs one more trace of the whole loop body,
     nested loops and all (the flat-foot step under ``jvp``: 2.4 of its 9.2 s
     of tracing). Selected against ``y``, such a carry has its
-    tangent (batch axis) from the start; XLA folds the constant select away,
-    so the compiled program computes the same numbers (bit for bit on every
-    program measured: benchmarks/bench_loop_carries.py, and on both engines in
+    tangent (batch axis) from the start. XLA folds the constant select away;
+    the optimised programs still differ by a few operations in how XLA
+    arranges them, and compute the same numbers (bit for bit on every program
+    measured: benchmarks/bench_loop_carries.py, and on both engines in
     tests/test_loop_carries.py).
     ``y``: any array with a tangent and batch axis wherever the carry will
     have them (the loop's state); its first element is read.
