@@ -475,7 +475,7 @@ def _attractor_program(model: Walker, settings: AttractorOptions, solver: Solver
         gait = Gait(v=g.v, jacobian=g.jacobian, eigenvalues=g.eigenvalues, lambda_max=g.lambda_max,
                     period=jnp.nan, step_length=jnp.nan, speed=jnp.nan, status=jnp.int8(Status.OK),
                     iterations=jnp.zeros((), jnp.int32), work=jnp.nan, cost_of_transport=jnp.nan,
-                    stats=GaitStats.none())
+                    context=jnp.full(len(model.context), jnp.nan), stats=GaitStats.none())
         return find_attractor(model, p, gait, settings, solver, newton)
 
     program = compiling.jit(over_rows(one, min(model.lockstep_batch, WALK_SUB_BATCH)), model)

@@ -137,6 +137,11 @@ class Gait(NamedTuple):
         cost_of_transport: ``work / (weight * step_length)``, the actuators'
             mechanical cost of transport (dimensionless; 0 for passive walkers,
             whose energy comes from gravity: ``sin(gamma)`` per unit weight and distance).
+        context: ``(n_ctx,)`` the model's discrete state (:attr:`~jaxwalk.walker.Walker.context`)
+            at the end of the step from ``v``, after its last reset: what that
+            step kept (event times; the flat-foot walker's ``min_clearance``),
+            from the search's last evaluation, so an analysis reads it without
+            walking the step again (:mod:`jaxwalk.analyses.clearance`).
         stats: :class:`GaitStats`, what the search cost.
     """
 
@@ -151,6 +156,7 @@ class Gait(NamedTuple):
     iterations: Int32[Array, "*batch"]
     work: Float[Array, "*batch"]
     cost_of_transport: Float[Array, "*batch"]
+    context: Float[Array, "*batch n_ctx"]
     stats: GaitStats
 
 
@@ -219,7 +225,8 @@ def find_gait(
     forward-mode pass and updates ``v -= (J - I)^-1 (f(v) - v)`` (paper eqs. 21-22).
     After the update that ends the search (below ``tol``, or leaving an error
     below it by :attr:`NewtonOptions.rate_test`), one more evaluation at the
-    converged point gives the reported Jacobian, period and step length.
+    converged point gives the reported Jacobian, period, step length and
+    the step's end context (:attr:`Gait.context`).
 
     With a :class:`Fallback` whose ``use`` holds, a search from ``v0`` that
     fails (any status but OK), has not converged after ``fallback.max_iter``
@@ -391,6 +398,7 @@ def _gait(model: Walker, params, out: _Newton) -> Gait:
         iterations=out.k + out.spent,
         work=blank(out.work),
         cost_of_transport=blank(out.work / (model.weight(params) * out.length)),
+        context=blank(out.ctx_end),
         stats=_stats(model, params, out),
     )
 

@@ -135,7 +135,7 @@ def test_the_fill_starts_from_the_secant_through_its_neighbours():
     status = np.full((1, 6), Status.OK, np.int8)
     status[0, 4] = Status.FELL
     v = np.arange(12.0).reshape(1, 6, 2)
-    gaits = Gait(v, *([None] * 6), status, *([None] * 4))
+    gaits = Gait(v, *([None] * 6), status, *([None] * 5))
     s = np.array([0.0, 0.1, 0.3, 0.6, 1.0, 1.5])
     point, side = np.array([2, 1, 2, 3, 1, 4]), np.array([-1, -1, 1, -1, 1, 1])
     carry = _neighbour_carry(gaits, s, np.zeros(6, int), point, side)
