@@ -179,7 +179,7 @@ def _solve_unless_ended(model: Walker, params, y, phase, ctx, t0, g0, opts: Solv
     can cross while a negative one is the smallest; a NaN state's error estimate
     rejects every step): 2048 Dopri8 steps, 2-4 s on the flat-foot walker, at
     every grid point whose first phase starts outside a friction cone and, in
-    the analyses that walk from each gait (``min_clearance``, ``h_max``, ...),
+    the analyses that walk from each gait (``h_max``, the basin, ...),
     at every point without a gait (its fixed point is NaN). An empty interval
     (``t1 = t0``) takes no solver step, also in a vmapped batch, where a
     ``lax.cond`` on a batched condition would run the full solve anyway."""

@@ -36,6 +36,25 @@ def test_min_clearance_is_refused_on_a_model_that_does_not_track_it():
         loads_config(FLATFOOT_1.replace("min_clearance = true", "min_clearance = 1"))
 
 
+def test_min_clearance_is_read_from_each_gaits_end_context():
+    """The plug-in computes nothing: it reads ``Gait.context`` (the step from the
+    fixed point, the search's last evaluation; tests/test_gait_context.py) for a
+    block of any shape: a minimum where one was passed, NaN where none was
+    (``NO_MINIMUM``) or no gait was found (a NaN context)."""
+    from types import SimpleNamespace
+
+    from jaxwalk.analyses.clearance import ANALYSIS
+    from jaxwalk.models.flatfoot import phases
+
+    context = np.zeros((2, 3, len(phases.CONTEXT)))
+    where = phases.C["min_clearance"]
+    context[..., where] = [[-0.02, 0.1, phases.NO_MINIMUM], [0.0, np.nan, 0.05]]
+    block = SimpleNamespace(gaits=SimpleNamespace(context=context))
+    out = ANALYSIS.compute(block)
+    assert list(out) == ["min_clearance"] and out["min_clearance"].dtype == np.float64
+    np.testing.assert_array_equal(out["min_clearance"], [[-0.02, 0.1, np.nan], [0.0, np.nan, 0.05]])
+
+
 def test_min_clearance_is_resolved_and_recorded_only_when_on():
     config = loads_config(FLATFOOT_1)
     assert config.min_clearance is True and config.to_dict()["analysis"]["min_clearance"] is True

@@ -15,7 +15,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxwalk.gait import find_gait
+from jaxwalk.gait import Fallback, find_gait
 from jaxwalk.models.simplest import SimplestWalker
 from jaxwalk.status import Status
 from jaxwalk.step import step_map
@@ -45,14 +45,26 @@ def _search(gamma):
 def test_the_context_is_the_end_context_of_the_step_from_the_fixed_point():
     params, gait = _search(0.009)
     assert int(gait.status) == Status.OK and int(gait.iterations) >= 2  # a search, not its start
-    # The step from the fixed point, and from a point as far from it as the
-    # iterate before the last update (updates 3.3e-5, 1.9e-7: test_newton_stop.py).
+    # The step from the fixed point, and from a point about as far from it as
+    # the iterate before the last update (updates 3.3e-5, 1.9e-7: test_newton_stop.py).
     starts = jnp.stack([gait.v, gait.v.at[0].add(1.9e-7)])
     _, res = jax.jit(jax.vmap(lambda v: step_map(MODEL, v, params)))(starts)
     np.testing.assert_allclose(gait.context, res.ctx[0], rtol=0, atol=1e-12)
-    assert abs(float(gait.context[2]) - float(gait.period)) < 1e-12
-    # ... so the context is the converged step's, not the one before's.
+    assert abs(float(gait.context[2]) - float(gait.period)) < 1e-12  # the step's end, as the period's
+    # ... which ends its step apart from the converged one's: the context is not an earlier iterate's.
     assert np.max(np.abs(np.asarray(res.ctx[1] - res.ctx[0]))) > 1e-9
+
+
+def test_after_a_fallback_the_context_is_the_second_searchs():
+    """A first search that falls (started walking backwards) restarts from the
+    fallback in the same loop; the context is that search's converged step's."""
+    params = {"gamma": jnp.asarray(0.009)}
+    guess = MODEL.initial_guess(params)
+    assert int(find_gait(MODEL, params, -guess).status) != Status.OK  # alone, the first search fails
+    gait = find_gait(MODEL, params, -guess, fallback=Fallback(guess, jnp.asarray(True)))
+    assert int(gait.status) == Status.OK
+    _, res = jax.jit(lambda v: step_map(MODEL, v, params))(gait.v)
+    np.testing.assert_allclose(gait.context, res.ctx, rtol=0, atol=1e-12)
 
 
 def test_a_failed_search_has_no_context():

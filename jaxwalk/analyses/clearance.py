@@ -57,9 +57,10 @@ class Clearance(Analysis):
     def compute(self, block: Block) -> dict[str, np.ndarray]:
         from jaxwalk.models.flatfoot.clearance import min_clearance
 
-        # The step from the fixed point is the gait search's last evaluation,
-        # whose end context the gait keeps: walking it again cost a program
-        # (about 20 s to trace and compile) and one more step per gait.
+        # Read, not walked again: the step from the fixed point is the gait
+        # search's last evaluation, whose end context the gait keeps; a
+        # program of its own would take ~20 s to trace and compile, and one
+        # more step per gait to run.
         return {"min_clearance": np.asarray(min_clearance(np.asarray(block.gaits.context)), np.float64)}
 
     def outputs(self, resolved=True) -> tuple[Output, ...]:
