@@ -42,13 +42,18 @@ def _search(gamma):
     return p, find_gait(MODEL, p, MODEL.initial_guess({"gamma": jnp.asarray(0.009)}))
 
 
+@jax.jit
+def _steps(params, starts):
+    """The plain step map's results from each of ``starts`` ``(2, n_v)``."""
+    return jax.vmap(lambda v: step_map(MODEL, v, params)[1])(starts)
+
+
 def test_the_context_is_the_end_context_of_the_step_from_the_fixed_point():
     params, gait = _search(0.009)
     assert int(gait.status) == Status.OK and int(gait.iterations) >= 2  # a search, not its start
     # The step from the fixed point, and from a point about as far from it as
     # the iterate before the last update (updates 3.3e-5, 1.9e-7: test_newton_stop.py).
-    starts = jnp.stack([gait.v, gait.v.at[0].add(1.9e-7)])
-    _, res = jax.jit(jax.vmap(lambda v: step_map(MODEL, v, params)))(starts)
+    res = _steps(params, jnp.stack([gait.v, gait.v.at[0].add(1.9e-7)]))
     np.testing.assert_allclose(gait.context, res.ctx[0], rtol=0, atol=1e-12)
     assert abs(float(gait.context[2]) - float(gait.period)) < 1e-12  # the step's end, as the period's
     # ... which ends its step apart from the converged one's: the context is not an earlier iterate's.
@@ -63,8 +68,8 @@ def test_after_a_fallback_the_context_is_the_second_searchs():
     assert int(find_gait(MODEL, params, -guess).status) != Status.OK  # alone, the first search fails
     gait = find_gait(MODEL, params, -guess, fallback=Fallback(guess, jnp.asarray(True)))
     assert int(gait.status) == Status.OK
-    _, res = jax.jit(lambda v: step_map(MODEL, v, params))(gait.v)
-    np.testing.assert_allclose(gait.context, res.ctx, rtol=0, atol=1e-12)
+    res = _steps(params, jnp.stack([gait.v, gait.v]))
+    np.testing.assert_allclose(gait.context, res.ctx[0], rtol=0, atol=1e-12)
 
 
 def test_a_failed_search_has_no_context():
