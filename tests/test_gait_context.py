@@ -37,9 +37,12 @@ class KeepingWalker(SimplestWalker):
 MODEL = KeepingWalker()
 
 
-def _search(gamma):
+def _search(gamma, v0=None, fallback=None):
+    """``(params, Gait)`` from ``v0`` (the guess made at 0.009), with ``fallback``
+    (none by default: a Fallback not used, so every search here is one program)."""
     p = {"gamma": jnp.asarray(gamma)}
-    return p, find_gait(MODEL, p, MODEL.initial_guess({"gamma": jnp.asarray(0.009)}))
+    v0 = MODEL.initial_guess({"gamma": jnp.asarray(0.009)}) if v0 is None else v0
+    return p, find_gait(MODEL, p, v0, fallback=Fallback(v0, jnp.asarray(False)) if fallback is None else fallback)
 
 
 @jax.jit
@@ -63,10 +66,9 @@ def test_the_context_is_the_end_context_of_the_step_from_the_fixed_point():
 def test_after_a_fallback_the_context_is_the_second_searchs():
     """A first search that falls (started walking backwards) restarts from the
     fallback in the same loop; the context is that search's converged step's."""
-    params = {"gamma": jnp.asarray(0.009)}
-    guess = MODEL.initial_guess(params)
-    assert int(find_gait(MODEL, params, -guess).status) != Status.OK  # alone, the first search fails
-    gait = find_gait(MODEL, params, -guess, fallback=Fallback(guess, jnp.asarray(True)))
+    guess = MODEL.initial_guess({"gamma": jnp.asarray(0.009)})
+    assert int(_search(0.009, -guess)[1].status) != Status.OK  # alone, the first search fails
+    params, gait = _search(0.009, -guess, Fallback(guess, jnp.asarray(True)))
     assert int(gait.status) == Status.OK
     res = _steps(params, jnp.stack([gait.v, gait.v]))
     np.testing.assert_allclose(gait.context, res.ctx[0], rtol=0, atol=1e-12)
