@@ -9,14 +9,14 @@ instance of a model class shares every compiled program with the registry's.
 from __future__ import annotations
 
 from jaxwalk.models.compass import CompassWalker as CompassWalker
-from jaxwalk.models.flatfoot import FlatFootWalker as FlatFootWalker
+from jaxwalk.models.flatfoot import FlatFootHeelRiseWalker as FlatFootHeelRiseWalker, FlatFootWalker as FlatFootWalker
 from jaxwalk.models.kneed import KneedStopWalker as KneedStopWalker, KneedWalker as KneedWalker
 from jaxwalk.models.simplest import SimplestWalker as SimplestWalker
 from jaxwalk.walker import Walker
 
 MODELS: dict[str, Walker] = {
     m.name: m
-    for m in (SimplestWalker(), CompassWalker(), KneedWalker(), KneedStopWalker(), FlatFootWalker())
+    for m in (SimplestWalker(), CompassWalker(), KneedWalker(), KneedStopWalker(), FlatFootWalker(), FlatFootHeelRiseWalker())
 }
 
 

@@ -25,7 +25,9 @@ _DIRS = ("heel_dir", "toe_dir")
 
 
 def in_air(phase):
-    return (phase == ph.SWING) | (phase == ph.LOCKED_SWING)
+    """True in the phases with foot 2 in the air (swing, locked swing and their heel-up twins)."""
+    flat = ph.FLAT_PHASE[phase]
+    return (flat == ph.SWING) | (flat == ph.LOCKED_SWING)
 
 
 def heights(q, qd, params, ctx, ground_under):

@@ -33,6 +33,10 @@ The swing knee has an extension stop at flexion ``knee_lock`` and a latch
   the phase sequence has no heel rise before toe-strike): ``FOOT_ROLLING``.
 * ``heel_extremum`` / ``toe_extremum``: bookkeeping of the swing foot's minimum
   clearance (:mod:`clearance`); no phase change.
+* The heel-rise walker only (``model.heel_rise``): ``heel_rise`` and ``heel_drop``
+  (:mod:`heel_rise`), the stance foot tipping onto its toe and back. Its
+  heel-up phases behave as their flat twins (:data:`phases.FLAT_PHASE`) in
+  everything that concerns leg 2.
 
 With ``knee_gate = 1`` knee-strike closes the latch only once the swing ankle
 has passed the stance ankle; before that the knee rests on its stop unlatched,
@@ -51,7 +55,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-from jaxwalk.models.flatfoot import clearance, forces
+from jaxwalk.models.flatfoot import clearance, forces, heel_rise
 from jaxwalk.models.flatfoot import geometry as geo
 from jaxwalk.models.flatfoot import phases as ph
 from jaxwalk.status import Status
@@ -77,6 +81,8 @@ GUARD_NAMES = (
     "heel_extremum",
     "toe_extremum",
 )
+#: The heel-rise walker's guards: two more before the extrema (:mod:`heel_rise`).
+HEEL_RISE_GUARD_NAMES = GUARD_NAMES[:HEEL_EXTREMUM] + heel_rise.NAMES + GUARD_NAMES[HEEL_EXTREMUM:]
 #: Status of each failure guard, in order of precedence.
 FAILURES = {
     FALL: Status.FELL,
@@ -98,8 +104,15 @@ FLEXION_LIMIT = 2.5
 #: Below this (units M sqrt(g L)) an impact is no impact: numerical zero.
 IMPULSE_FLOOR = 1e-12
 
-_CHECKED_IMPULSES = jnp.array([0, 1, 3])
-_STOP_PHASES = jnp.array([True, False, False, True, False])  # knee 2 locked, may release
+_CHECKED_IMPULSES = jnp.array([0, 1, 3, 4])
+_STOP_PHASES = jnp.array([True, False, False, True, False, False, True, False])  # knee 2 locked, may release
+
+
+def extremum_codes(model):
+    """Guard codes of the swing foot's heel and toe extremum guards (after
+    :mod:`heel_rise`'s two in the heel-rise walker)."""
+    shift = len(heel_rise.NAMES) if model.heel_rise else 0
+    return HEEL_EXTREMUM + shift, TOE_EXTREMUM + shift
 
 
 def _ground_under(x, ctx, params):
@@ -119,8 +132,10 @@ def _cone(force, params):
 
 
 def guard_values(model, t, y, params, phase, ctx):
-    """``(16,)`` guard values in the order of :data:`GUARD_NAMES`."""
+    """``(n_guards,)`` guard values in the order of ``model.guards`` (:data:`GUARD_NAMES`,
+    or :data:`HEEL_RISE_GUARD_NAMES` in the heel-rise walker)."""
     q, qd = model.split(y)
+    flat = ph.FLAT_PHASE[phase]
     _, lam = model.dynamics(y, params, phase, ctx)
     stance, _, toe, heel = forces.contact_reactions(q, lam, params, phase, ctx)
     gn, knee_state = ctx[ph.C["ground_next"]], ctx[ph.C["knee_2"]]
@@ -138,15 +153,15 @@ def guard_values(model, t, y, params, phase, ctx):
     knee = jnp.where(ph.KNEE_2_FREE[phase] & (flex_rate < 0.0), flex - params["knee_lock"], one)
     # The paper's mid-stance gate: a knee resting on its stop, unlatched, latches
     # when its ankle passes the stance ankle.
-    gated = (params["knee_gate"] > 0.5) & (phase == ph.LOCKED_SWING) & (knee_state == ph.RELEASED)
+    gated = (params["knee_gate"] > 0.5) & (flat == ph.LOCKED_SWING) & (knee_state == ph.RELEASED)
     knee = jnp.where(gated, ctx[ph.C["x_ankle_1"]] - geo.ankle(q, params, 2)[0], knee)
 
-    in_air = (phase == ph.SWING) | (phase == ph.LOCKED_SWING)
+    in_air = clearance.in_air(phase)
     heel_pt, toe_pt = geo.free_foot(q, params, 2)
     # Open once the heel is past foot 1's toe, where a heel in the air is above ground.
     past = heel_pt[0] > ctx[ph.C["x_ankle_1"]] + a_t
     heel_strike = jnp.where(in_air & past, heel_pt[1] - gn, one)
-    toe_strike = jnp.where(phase == ph.HEEL_PIVOT, geo.ankle(q, params, 2)[1] - gn, one)
+    toe_strike = jnp.where(flat == ph.HEEL_PIVOT, geo.ankle(q, params, 2)[1] - gn, one)
 
     fall = q[geo.Y_H] - FALL_HEIGHT
     leg_range = jnp.minimum(SEGMENT_LIMIT - jnp.max(jnp.abs(q[2:])), FLEXION_LIMIT - flex)
@@ -162,19 +177,23 @@ def guard_values(model, t, y, params, phase, ctx):
     # A knee on its extension stop (no latch) holds only while the stop pushes:
     # the stance knee always, the landing knee in heel pivot.
     no_latch = params["stance_latch"] < 0.5
-    loaded_2 = jnp.where(phase == ph.HEEL_PIVOT, lam[ph.KNEE_2], one)
+    loaded_2 = jnp.where(flat == ph.HEEL_PIVOT, lam[ph.KNEE_2], one)
     buckle = jnp.where(no_latch, jnp.minimum(lam[ph.KNEE_1], loaded_2), one)
     # The flat stance foot holds its ankle spring's torque by where its normal
     # force acts; it stays flat only while that centre of pressure lies between
     # heel and toe, -a_h N <= tau <= a_t N (moment form: no division by N, whose
     # sign the `running` guard checks).
     tau = forces.stance_ankle_torque(q, params, ctx)
-    foot_roll = jnp.minimum(a_t * stance[1] - tau, tau + a_h * stance[1])
+    toe_margin, heel_margin = a_t * stance[1] - tau, tau + a_h * stance[1]
+    if model.heel_rise:
+        foot_roll, *rise_drop = heel_rise.guards(q, qd, params, phase, toe_margin, heel_margin)
+    else:
+        foot_roll, rise_drop = jnp.minimum(toe_margin, heel_margin), []
     extrema = clearance.guards(q, qd, params, phase, ctx, _ground_under)
     return jnp.concatenate(
         [
             jnp.stack([unlock, knee_flex, toe_off, knee, heel_strike, toe_strike, fall, leg_range, stall, running]),
-            jnp.stack([scuff, slip, buckle, foot_roll]),
+            jnp.stack([scuff, slip, buckle, foot_roll, *rise_drop]),
             extrema,
         ]
     )
@@ -200,9 +219,10 @@ def settle(model, t, y, params, phase, ctx):
         lifts = ph.ON_TOE[phase] & (g[TOE_OFF] < 0.0)
         flexes = ~lifts & (g[KNEE_FLEX] < 0.0)
         from_push_off = phase == ph.PUSH_OFF
+        swing = jnp.where(ph.HEEL_UP[phase], ph.SWING_HEEL_UP, ph.SWING)
         new_phase = jnp.select(
             [lifts, flexes],
-            [jnp.where(from_push_off, ph.LOCKED_SWING, ph.SWING), jnp.where(from_push_off, ph.SHANK_RELEASE, ph.SWING)],
+            [jnp.where(from_push_off, ph.LOCKED_SWING, ph.SWING), jnp.where(from_push_off, ph.SHANK_RELEASE, swing)],
             phase,
         ).astype(jnp.int32)
         new_ctx = jnp.select(
@@ -210,7 +230,7 @@ def settle(model, t, y, params, phase, ctx):
         )
         return new_phase, new_ctx, g
 
-    g0 = jnp.ones(len(GUARD_NAMES), y.dtype)
+    g0 = jnp.ones(len(model.guards), y.dtype)
     return jax.lax.fori_loop(0, 3, one_pass, (jnp.asarray(phase, jnp.int32), ctx, g0))
 
 
@@ -220,7 +240,7 @@ def entry_failure(guards, phase):
     for guard, code in reversed(list(FAILURES.items())):  # the first listed wins
         status = jnp.where(guards[guard] <= 0.0, jnp.int8(code), status)
     # A heel pivot that starts with the ankle on or below the ground: the foot landed flat or toe first.
-    bad_landing = (phase == ph.HEEL_PIVOT) & (guards[TOE_STRIKE] <= 0.0)
+    bad_landing = (ph.FLAT_PHASE[phase] == ph.HEEL_PIVOT) & (guards[TOE_STRIKE] <= 0.0)
     return jnp.where(bad_landing, jnp.int8(Status.SCUFFING), status)
 
 
@@ -243,11 +263,13 @@ def normal_impulses(q, impulses, params, ctx):
 def impulse_failures(q, impulses, params, ctx):
     """``(pulls, slides)`` of an impact's contact impulses, scaled to the impact.
 
-    Foot 1 flat, toe 2 and the landing ankle 2 must push; foot 1 and the landing
-    ankle must stay inside the friction cone. The heel of foot 2 is held without
+    Foot 1 flat, toe 2, the landing ankle 2 and toe 1 must push; foot 1 and the
+    landing ankle must stay inside the friction cone. The heel of foot 2 is held without
     bounce (the paper's assumption 4), and its impulse, carried by the massless
     foot, lies along the foot, so its cone is checked on the force that follows
-    (the ``slip`` guard). Toe 1 starts flat, so its impulse lies along the ground.
+    (the ``slip`` guard); so is toe 1's (the next step's ``toe_off``). Toe 1's
+    impulse has a normal part only with its heel up (a flat foot's lies along the
+    ground), so its check matters in the heel-rise walker alone.
     A knee without a latch (``stance_latch = 0``) must not be pulled by its stop.
     """
     normal = normal_impulses(q, impulses, params, ctx)
@@ -270,7 +292,7 @@ def _latch_after_strike(q, params, phase, ctx):
     to root-finding accuracy): it always closes the latch, or the gate's guard,
     still at zero, would fire again and again.
     """
-    passed = (geo.ankle(q, params, 2)[0] > ctx[ph.C["x_ankle_1"]]) | (phase == ph.LOCKED_SWING)
+    passed = (geo.ankle(q, params, 2)[0] > ctx[ph.C["x_ankle_1"]]) | (ph.FLAT_PHASE[phase] == ph.LOCKED_SWING)
     return jnp.where((params["knee_gate"] < 0.5) | passed, ph.RELATCHED, ph.RELEASED)
 
 
@@ -327,14 +349,43 @@ def _event_status(guard, q, qd, params, ctx, pulls, slides):
     return status
 
 
+def _next_flat_phase(guard, flat, extremum):
+    """The phase after ``guard`` as the base walker has it, from the flat phase ``flat``."""
+    is_ = lambda g: guard == g
+    from_push_off = flat == ph.PUSH_OFF
+    in_air = (flat == ph.SWING) | (flat == ph.LOCKED_SWING)
+    return jnp.select(
+        [is_(UNLOCK), is_(KNEE_FLEX), is_(TOE_OFF), is_(KNEE_STRIKE), is_(HEEL_STRIKE), extremum >= 0],
+        [
+            flat,
+            jnp.where(from_push_off, ph.SHANK_RELEASE, ph.SWING),
+            jnp.where(from_push_off, ph.LOCKED_SWING, ph.SWING),
+            jnp.where(in_air, ph.LOCKED_SWING, ph.PUSH_OFF),
+            ph.HEEL_PIVOT,
+            flat,
+        ],
+        ph.PUSH_OFF,
+    )
+
+
+def _next_phase(model, guard, phase, extremum):
+    """The phase after ``guard`` in ``phase``: leg 2's events keep a raised stance
+    heel raised (the heel-up twin of the flat successor); :mod:`heel_rise`'s two
+    events move between the twins."""
+    following = _next_flat_phase(guard, ph.FLAT_PHASE[phase], extremum)
+    twin = ph.HEEL_UP[phase] & (following >= ph.SWING) & (following <= ph.HEEL_PIVOT)
+    following = jnp.where(twin, following + ph.HEEL_UP_OFFSET, following).astype(jnp.int32)
+    return heel_rise.next_phase(guard, phase, following) if model.heel_rise else following
+
+
 def on_event(model, guard, t, y, params, phase, ctx):
     """The reset after ``guard`` crossed zero in ``phase`` (see the module docstring)."""
     q, qd = model.split(y)
     is_ = lambda g: guard == g
-    from_push_off = phase == ph.PUSH_OFF
     heel_pt, _ = geo.free_foot(q, params, 2)
     knee = ph.C["knee_2"]
-    extremum = jnp.select([is_(HEEL_EXTREMUM), is_(TOE_EXTREMUM)], [0, 1], -1)
+    heel_code, toe_code = extremum_codes(model)
+    extremum = jnp.select([is_(heel_code), is_(toe_code)], [0, 1], -1)
     ctx_new = jnp.select(
         [is_(UNLOCK), is_(KNEE_FLEX), is_(TOE_OFF), is_(KNEE_STRIKE), is_(HEEL_STRIKE), extremum >= 0],
         [
@@ -347,25 +398,14 @@ def on_event(model, guard, t, y, params, phase, ctx):
         ],
         _log(ctx, guard, t),
     )
-    in_air = (phase == ph.SWING) | (phase == ph.LOCKED_SWING)
-    next_phase = jnp.select(
-        [is_(UNLOCK), is_(KNEE_FLEX), is_(TOE_OFF), is_(KNEE_STRIKE), is_(HEEL_STRIKE), extremum >= 0],
-        [
-            phase,
-            jnp.where(from_push_off, ph.SHANK_RELEASE, ph.SWING),
-            jnp.where(from_push_off, ph.LOCKED_SWING, ph.SWING),
-            jnp.where(in_air, ph.LOCKED_SWING, ph.PUSH_OFF),
-            ph.HEEL_PIVOT,
-            phase,
-        ],
-        ph.PUSH_OFF,
-    ).astype(jnp.int32)
+    next_phase = _next_phase(model, guard, phase, extremum)
 
     # One impact, onto the constraints that hold after the event (none for the others).
+    onto_next = is_(KNEE_STRIKE) | is_(HEEL_STRIKE)
+    if model.heel_rise:
+        onto_next = onto_next | is_(heel_rise.HEEL_DROP)
     mask = jnp.select(
-        [is_(KNEE_STRIKE) | is_(HEEL_STRIKE), is_(TOE_STRIKE)],
-        [ph.PHASE_MASKS[next_phase], ph.TOE_STRIKE_MASK],
-        jnp.zeros(ph.N_CONSTRAINTS),
+        [onto_next, is_(TOE_STRIKE)], [ph.PHASE_MASKS[next_phase], ph.TOE_STRIKE_MASK], jnp.zeros(ph.N_CONSTRAINTS)
     )
     y_imp, impulses = model.apply_impact(y, params, ctx_new, mask)
     pulls, slides = impulse_failures(q, impulses, params, ctx_new)
@@ -393,5 +433,5 @@ def on_event(model, guard, t, y, params, phase, ctx):
         status=status,
         step_done=done & ok,
         shift=jnp.where(done & ok, shift, 0.0),
-        work=jnp.where(done & ok, forces.reset_work(q, ctx_new, y_swap[:6], ctx_swap, params), 0.0),
+        work=jnp.where(done & ok, forces.reset_work(q, ctx_new, y_swap[:6], ctx_swap, params, phase), 0.0),
     )

@@ -31,6 +31,10 @@ The heel-brake torque (``heel_brake``) is its counterpart on the landing foot: a
 constant dorsiflexor torque while foot 2 pivots on its heel, resisting the
 foot's fall to flat, the potential ``heel_brake * stretch`` of the heel spring's
 stretch. Both load their contact: the ground forces include them.
+
+In the heel-rise walker's heel-up phases (:data:`phases.HEEL_UP`) the stance
+foot pivots on its toe, and its spring is the same potential with ``phi_1`` the
+toe-pivot angle of ankle 1; no actuator acts at the stance ankle.
 """
 
 from __future__ import annotations
@@ -65,6 +69,24 @@ def _toe_deflection(ankle_2, shank_2, params, ctx):
     rest angle on the foot, :func:`rest_angles`)."""
     _, toe_2, _, _ = ph.anchors(params, ctx)
     return shank_2 - geo.toe_pivot_angle(ankle_2, toe_2) - rest_angles(params, ctx)[1]
+
+
+def _stance_toe_deflection(ankle_1, shank_1, params, ctx):
+    """The stance ankle's deflection while foot 1 pivots on its toe (heel up; rad,
+    positive with the shank turned back from its rest angle on the foot)."""
+    toe_1, _, _, _ = ph.anchors(params, ctx)
+    return shank_1 - geo.toe_pivot_angle(ankle_1, toe_1) - rest_angles(params, ctx)[0]
+
+
+def _stance_toe_spring(ankle_1, shank_1, params, ctx):
+    return 0.5 * params["k"] * _stance_toe_deflection(ankle_1, shank_1, params, ctx) ** 2
+
+
+def _stance_deflection(q, params, phase, ctx):
+    """The stance ankle's deflection in ``phase``: foot 1 flat, or on its toe where the heel is up."""
+    flat = q[geo.SHANK_1] - rest_angles(params, ctx)[0]
+    on_toe = _stance_toe_deflection(geo.ankle(q, params, 1), q[geo.SHANK_1], params, ctx)
+    return jnp.where(ph.HEEL_UP[phase], on_toe, flat)
 
 
 def _toe_spring(ankle_2, shank_2, params, ctx):
@@ -113,13 +135,13 @@ def ankle_deflections(q, params, phase, ctx):
     from relaxed in ``phase`` (rad; ``shank - phi - rest``, positive with the shank
     turned back; 0 for a foot in the air).
 
-    Leg 1 stands flat all step (``phi = 0``); leg 2 pivots on its toe in push-off
+    Leg 1 stands flat (``phi = 0``) or, heel up, on its toe; leg 2 pivots on its toe in push-off
     and shank release, on its heel in heel pivot (relaxed at its landing angle,
     ``rest = -swing_dorsi``), and is relaxed in swing. A foot standing on the
     ground (flat or on its toe) is relaxed at its :func:`rest_angles` (the
     defaults: the shank perpendicular to the foot).
     """
-    stance = q[geo.SHANK_1] - rest_angles(params, ctx)[0]
+    stance = _stance_deflection(q, params, phase, ctx)
     ankle_2, shank_2 = geo.ankle(q, params, 2), q[geo.SHANK_2]
     trailing = jnp.where(
         ph.ON_TOE[phase],
@@ -132,7 +154,7 @@ def ankle_deflections(q, params, phase, ctx):
 def spring_energy(q, params, phase, ctx):
     """Elastic energy of both ankle springs (``k/2`` times their :func:`ankle_deflections`
     squared) and the hip spring in ``phase`` (scalar)."""
-    stance = 0.5 * params["k"] * (q[geo.SHANK_1] - rest_angles(params, ctx)[0]) ** 2
+    stance = 0.5 * params["k"] * _stance_deflection(q, params, phase, ctx) ** 2
     ankle_2, shank_2 = geo.ankle(q, params, 2), q[geo.SHANK_2]
     trailing = jnp.where(
         ph.ON_TOE[phase],
@@ -142,7 +164,7 @@ def spring_energy(q, params, phase, ctx):
     return stance + trailing + hip_spring_energy(q, params)
 
 
-def reset_work(q_before, ctx_before, q_after, ctx_after, params):
+def reset_work(q_before, ctx_before, q_after, ctx_after, params, phase_before=ph.HEEL_PIVOT):
     """Work (>= 0, ``M g L``) an actuator must do on the ankle springs at toe-strike.
 
     At toe-strike each ankle spring changes its role at a fixed configuration:
@@ -164,9 +186,11 @@ def reset_work(q_before, ctx_before, q_after, ctx_after, params):
         q_before: ``(n_q,)`` the configuration at toe-strike before the legs swap
             (heel pivot, discrete state ``ctx_before``); ``q_after``: the same
             configuration after the swap (push-off, ``ctx_after``).
+        phase_before: the phase toe-strike ended (``heel_pivot``, or the heel-rise
+            walker's ``heel_pivot_heel_up``, whose stance spring is on its toe).
         params: the walker's parameters (``k`` and the rest angles' options).
     """
-    stance_before, landing_before = ankle_deflections(q_before, params, ph.HEEL_PIVOT, ctx_before)
+    stance_before, landing_before = ankle_deflections(q_before, params, phase_before, ctx_before)
     stance_after, trailing_after = ankle_deflections(q_after, params, ph.PUSH_OFF, ctx_after)
 
     def wound(before, after):
@@ -268,13 +292,19 @@ def contact_reactions(q, lam, params, phase, ctx):
     Returns:
         ``(stance, cop, toe_2, heel_2)``: the force on foot 1 ``(2,)``, its centre
         of pressure measured forward from the ankle (scalar; must lie in
-        ``[-a_h, a_t]`` for the foot to stay flat), and the forces on the toe and
-        heel of foot 2 ``(2,)`` each, zero when not in contact.
+        ``[-a_h, a_t]`` for the foot to stay flat; ``a_t`` with the heel up, the
+        force then being the toe's), and the forces on the toe and heel of foot 2
+        ``(2,)`` each, zero when not in contact.
     """
-    stance = jnp.stack([lam[ph.ANKLE_1_X], lam[ph.ANKLE_1_Y]])
-    cop = stance_ankle_torque(q, params, ctx) / stance[1]
+    toe_1, toe_2, heel_2, _ = ph.anchors(params, ctx)
+    heel_up = ph.HEEL_UP[phase]
+    pinned = jnp.stack([lam[ph.ANKLE_1_X], lam[ph.ANKLE_1_Y]])
+    on_toe = _pivot_reaction(
+        lam[ph.TOE_1], geo.ankle(q, params, 1), q[geo.SHANK_1], params, ctx, toe_1, _stance_toe_spring
+    )
+    stance = jnp.where(heel_up, on_toe, pinned)
+    cop = jnp.where(heel_up, geo.foot_arms(params)[1], stance_ankle_torque(q, params, ctx) / stance[1])
     ankle_2, shank_2 = geo.ankle(q, params, 2), q[geo.SHANK_2]
-    _, toe_2, heel_2, _ = ph.anchors(params, ctx)
     toe = _pivot_reaction(lam[ph.TOE_2], ankle_2, shank_2, params, ctx, toe_2, _toe_load)
     heel = _pivot_reaction(lam[ph.HEEL_2], ankle_2, shank_2, params, ctx, heel_2, _heel_load)
     toe = jnp.where(ph.ON_TOE[phase], toe, 0.0)

@@ -137,6 +137,9 @@ class FlatFootWalker(Walker):
     limit_guards = ("slip", "slip", "foot_roll", "foot_roll")  # of stance_friction, heel_friction, cop_toe, cop_heel
     failure_guards = tuple(events.GUARD_NAMES[g] for g in events.FAILURES)
     context = ph.CONTEXT
+    # The stance heel stays down until the other foot is flat (the paper's
+    # phases); FlatFootHeelRiseWalker lets it rise.
+    heel_rise = False
     ground_next = ph.C["ground_next"]
     section_names = ("psi", "psi_dot")
     # The half-spans of the default (shoe) gait's basin image
@@ -198,14 +201,18 @@ class FlatFootWalker(Walker):
         q = jnp.stack([hip[0], hip[1], th1, th1 - kappa, th2, th2 - kappa])
         ctx = jnp.zeros(len(self.context), v.dtype).at[ph.C["min_clearance"]].set(ph.NO_MINIMUM)
         ctx = ctx.at[ph.C["x_toe_2"]].set(-2.0 * length * jnp.sin(psi) + a_t)
+        return self._push_off_start(q, psi_dot, params, ctx)
+
+    def _push_off_start(self, q, psi_dot, params, ctx):
+        """``(y, phase, ctx)`` at the section from its configuration ``q`` and ``psi_dot``."""
         ctx = ctx.at[ph.C["shank_1_strike"]].set(q[geo.SHANK_1]).at[ph.C["shank_2_strike"]].set(q[geo.SHANK_2])
         # Velocity: the push-off constraints hold, and thigh_1 turns at psi_dot.
         sigma = jax.jacfwd(ph.constraints)(q, params, ctx)[jnp.array(_SECTION_ROWS)]
-        lhs = jnp.concatenate([sigma, jnp.eye(6, dtype=v.dtype)[geo.THIGH_1][None]], axis=0)
-        rhs = jnp.zeros(6, v.dtype).at[-1].set(psi_dot)
+        lhs = jnp.concatenate([sigma, jnp.eye(6, dtype=q.dtype)[geo.THIGH_1][None]], axis=0)
+        rhs = jnp.zeros(6, q.dtype).at[-1].set(psi_dot)
         qd = mechanics.solve(lhs, rhs)  # order 6: the unrolled elimination (mechanics.solve)
         y = jnp.concatenate([q, qd])
-        t0 = jnp.zeros((), v.dtype)
+        t0 = jnp.zeros((), q.dtype)
         # A toe that would pull leaves at once, a knee that would pull flexes at
         # once; a failure already due at t = 0 is the engine's event at the start.
         phase, ctx, _ = events.settle(self, t0, y, params, jnp.asarray(ph.PUSH_OFF, jnp.int32), ctx)
@@ -258,7 +265,7 @@ class FlatFootWalker(Walker):
 
     # ------------------------------------------------------------ drawing
     def _feet(self, q, params, ctx):
-        """``(2, 2, 2)`` heel and toe of foot 1 (stance, flat) and foot 2.
+        """``(2, 2, 2)`` heel and toe of foot 1 (stance) and foot 2.
 
         Foot 2's pose is read off the geometry (figures get no phase): pivoting on
         its toe or heel anchor while the ankle sits at the arm's distance from it
@@ -266,9 +273,11 @@ class FlatFootWalker(Walker):
         """
         a_h, a_t = geo.foot_arms(params)
         ankle_1, ankle_2 = geo.ankle(q, params, 1), geo.ankle(q, params, 2)
-        flat = geo.foot_direction(jnp.zeros_like(a_h))
-        foot_1 = jnp.stack([ankle_1 - a_h * flat, ankle_1 + a_t * flat])
-        _, toe_2, heel_2, _ = ph.anchors(params, ctx)
+        toe_1, toe_2, heel_2, _ = ph.anchors(params, ctx)
+        # Foot 1 stands flat, or in the heel-rise walker on its toe (angle 0 when flat).
+        phi_1 = geo.toe_pivot_angle(ankle_1, toe_1) if self.heel_rise else jnp.zeros_like(a_h)
+        e_1 = geo.foot_direction(phi_1)
+        foot_1 = jnp.stack([ankle_1 - a_h * e_1, ankle_1 + a_t * e_1])
         on_toe = jnp.abs(jnp.linalg.norm(ankle_2 - toe_2) - a_t) < 1e-6
         on_heel = jnp.abs(jnp.linalg.norm(ankle_2 - heel_2) - a_h) < 1e-6
         e_toe = geo.foot_direction(geo.toe_pivot_angle(ankle_2, toe_2))
@@ -292,3 +301,53 @@ class FlatFootWalker(Walker):
     def foot_points(self, q, params, ctx):
         """``(2, 2, 2)`` heel and toe of each foot (for foot clearance)."""
         return self._feet(q, params, ctx)
+
+
+class FlatFootHeelRiseWalker(FlatFootWalker):
+    """The flat-foot walker whose stance heel may rise before the other foot is flat.
+
+    Three more phases, heel-up twins of swing, locked swing and heel pivot, and
+    two events, ``heel_rise`` and ``heel_drop`` (:mod:`heel_rise`), so that a
+    stiff (human) ankle tips the stance foot onto its toe instead of ending the
+    step ``FOOT_ROLLING``. The section is ``v = (psi, psi_2, psi_dot)``: a step
+    that ends with the stance heel up leaves the new trailing foot on its toe
+    with its ankle above the ground, at chord angle ``psi_2`` (``-psi`` when
+    both feet are flat). docs/model.md, "The heel-rise walker".
+    """
+
+    name = "flatfoot_heel_rise"
+    description = "flat-foot walker whose stance heel may rise before the other foot lands flat"
+    heel_rise = True
+    phases = ph.HEEL_RISE_PHASE_NAMES
+    guards = events.HEEL_RISE_GUARD_NAMES
+    section_names = ("psi", "psi_2", "psi_dot")
+    # The base walker's half-spans, psi's for psi_2.
+    basin_scale = (0.12, 0.12, 0.25)
+
+    def section_to_state(self, v, params):
+        """Full state just after toe-strike from ``v = (psi, psi_2, psi_dot)``.
+
+        The trailing toe is on the ground ahead of ankle 2 at the foot's toe arm;
+        where ankle 2 is below the ground (not a state of the walker, but a point
+        Newton may try) the same formulas continue smoothly.
+        """
+        psi, psi_2, psi_dot = v[0], v[1], v[2]
+        length, delta = geo.chord(params)
+        _, a_t = geo.foot_arms(params)
+        kappa = params["knee_lock"]
+        hip = -length * geo.distal(psi)
+        th1, th2 = psi + delta, psi_2 + delta
+        q = jnp.stack([hip[0], hip[1], th1, th1 - kappa, th2, th2 - kappa])
+        ankle_2 = geo.ankle(q, params, 2)
+        ctx = jnp.zeros(len(self.context), v.dtype).at[ph.C["min_clearance"]].set(ph.NO_MINIMUM)
+        ctx = ctx.at[ph.C["x_toe_2"]].set(ankle_2[0] + jnp.sqrt(a_t**2 - ankle_2[1] ** 2))
+        return self._push_off_start(q, psi_dot, params, ctx)
+
+    def state_to_section(self, y, params, ctx):
+        _, delta = geo.chord(params)
+        return jnp.stack([y[geo.THIGH_1] - delta, y[geo.THIGH_2] - delta, y[6 + geo.THIGH_1]])
+
+    def initial_guess(self, params):
+        """The base walker's documented gait (:meth:`FlatFootWalker.initial_guess`), both feet flat: ``psi_2 = -psi``."""
+        psi, psi_dot = super().initial_guess(params)
+        return jnp.stack([psi, -psi, psi_dot])

@@ -24,6 +24,12 @@ circle of radius ``a_t`` about its toe (the paper's xi_4); ankle 2 on the circle
 of radius ``a_h`` about its heel (xi_8); ankle 2 (x, y) on its landing point
 (xi_2, used by the toe-strike impact); ankle 1 on the circle about its toe (for
 the toe-strike impact, after which leg 1 trails on its toe).
+
+The heel-rise walker (``flatfoot_heel_rise``) has three more phases, heel-up
+twins of swing, locked swing and heel pivot (5, 6, 7) in which the stance foot
+pivots on its toe: its twin's rows with ankle 1's pin replaced by ankle 1 on
+the circle about its toe (docs/model.md, "The heel-rise walker"). The tables
+below have a row for each of the eight; the base walker never enters 5-7.
 """
 
 from __future__ import annotations
@@ -35,6 +41,11 @@ from jaxwalk.models.flatfoot import geometry as geo
 # Phases.
 PUSH_OFF, SHANK_RELEASE, SWING, LOCKED_SWING, HEEL_PIVOT = range(5)
 PHASE_NAMES = ("push_off", "shank_release", "swing", "locked_swing", "heel_pivot")
+# The heel-rise walker's heel-up twins of swing, locked swing and heel pivot.
+SWING_HEEL_UP, LOCKED_SWING_HEEL_UP, HEEL_PIVOT_HEEL_UP = range(5, 8)
+HEEL_RISE_PHASE_NAMES = PHASE_NAMES + ("swing_heel_up", "locked_swing_heel_up", "heel_pivot_heel_up")
+#: A heel-up twin is its flat phase plus this (swing -> swing_heel_up, ...).
+HEEL_UP_OFFSET = SWING_HEEL_UP - SWING
 
 # Constraint rows.
 ANKLE_1_X, ANKLE_1_Y, KNEE_1, KNEE_2, TOE_2, HEEL_2, ANKLE_2_X, ANKLE_2_Y, TOE_1 = range(9)
@@ -87,7 +98,8 @@ def _mask(*rows: int) -> list[float]:
 
 
 _STANCE = (ANKLE_1_X, ANKLE_1_Y, KNEE_1)
-#: ``(5, n_c)`` which rows hold in each phase.
+_ON_TOE_1 = (TOE_1, KNEE_1)
+#: ``(8, n_c)`` which rows hold in each phase.
 PHASE_MASKS = jnp.array(
     [
         _mask(*_STANCE, KNEE_2, TOE_2),
@@ -95,15 +107,23 @@ PHASE_MASKS = jnp.array(
         _mask(*_STANCE),
         _mask(*_STANCE, KNEE_2),
         _mask(*_STANCE, KNEE_2, HEEL_2),
+        _mask(*_ON_TOE_1),
+        _mask(*_ON_TOE_1, KNEE_2),
+        _mask(*_ON_TOE_1, KNEE_2, HEEL_2),
     ]
 )
 #: Rows of the toe-strike impact: the constraints of the next step's push-off, before the swap.
 TOE_STRIKE_MASK = jnp.array(_mask(KNEE_1, KNEE_2, ANKLE_2_X, ANKLE_2_Y, TOE_1))
 
+#: ``(8,)`` the flat phase of each phase (a heel-up twin's twin): what leg 2
+#: does, its guards and resets, depends on this alone.
+FLAT_PHASE = jnp.array([PUSH_OFF, SHANK_RELEASE, SWING, LOCKED_SWING, HEEL_PIVOT, SWING, LOCKED_SWING, HEEL_PIVOT])
+#: ``(8,)`` phases in which the stance heel is up (foot 1 pivots on its toe).
+HEEL_UP = jnp.array([False] * 5 + [True] * 3)
 #: Phases in which leg 2 stands on its toe, swings, or stands on its heel.
-ON_TOE = jnp.array([True, True, False, False, False])
-ON_HEEL = jnp.array([False, False, False, False, True])
-KNEE_2_FREE = jnp.array([False, True, True, False, False])
+ON_TOE = jnp.array([True, True, False, False, False, False, False, False])
+ON_HEEL = jnp.array([False, False, False, False, True, False, False, True])
+KNEE_2_FREE = jnp.array([False, True, True, False, False, True, False, False])
 
 
 def anchors(params, ctx):

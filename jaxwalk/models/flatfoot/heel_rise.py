@@ -1,0 +1,72 @@
+"""The heel-rise walker's two events: the stance heel rising and dropping back.
+
+In the heel-rise walker (``flatfoot_heel_rise``, docs/model.md "The heel-rise
+walker") the flat stance foot tips onto its toe when its centre of pressure
+reaches the toe in swing, locked swing or heel pivot, instead of the step ending
+``FOOT_ROLLING``:
+
+* ``heel_rise`` (the toe side of ``foot_roll``, ``a_t N - tau``): the phase goes
+  to its heel-up twin, with no impact (ankle 1 is at rest as it starts to lift,
+  so the velocity already satisfies the toe circle).
+* ``heel_drop`` (ankle 1's height, gated on it falling): back to the flat phase
+  through an inelastic impact onto ankle 1's pin.
+
+No entry check is needed: at the crossing the toe circle's multiplier is
+horizontal (the foot is flat), so ankle 1's vertical force is the spring's
+reaction across the foot, ``tau / a_t``, where the pin supplied ``N``; its
+vertical acceleration in the twin has the sign of ``tau / a_t - N``, that is
+of ``-heel_rise``: zero at the crossing and positive after it (and positive on
+entering with the guard already below zero). The tests check that the heel rises.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+
+from jaxwalk.models.flatfoot import geometry as geo
+from jaxwalk.models.flatfoot import phases as ph
+
+#: Guard codes of the two events (below 16: the event log is base 16); the
+#: swing foot's extremum guards, never logged, follow them.
+HEEL_RISE, HEEL_DROP = 14, 15
+NAMES = ("heel_rise", "heel_drop")
+
+
+def _may_rise(phase):
+    """Phases whose stance foot may tip onto its toe: swing, locked swing, heel pivot (flat)."""
+    return (phase == ph.SWING) | (phase == ph.LOCKED_SWING) | (phase == ph.HEEL_PIVOT)
+
+
+def _ankle_1_height_and_rate(q, qd, params):
+    return jax.jvp(lambda q_: geo.ankle(q_, params, 1)[1], (q,), (qd,))
+
+
+def guards(q, qd, params, phase, toe_margin, heel_margin):
+    """``(foot_roll, heel_rise, heel_drop)`` of the heel-rise walker in ``phase``.
+
+    Args:
+        toe_margin, heel_margin: ``a_t N - tau`` and ``tau + a_h N`` of the flat
+            stance foot (the two sides of the base walker's ``foot_roll``).
+
+    ``foot_roll`` keeps both sides in push-off and shank release, only the heel
+    side where the heel may rise, and is 1 with the heel up (a foot on its toe
+    has no centre of pressure to move).
+    """
+    one = jnp.ones_like(toe_margin)
+    heel_up = ph.HEEL_UP[phase]
+    may_rise = _may_rise(phase)
+    foot_roll = jnp.where(heel_up, one, jnp.where(may_rise, heel_margin, jnp.minimum(toe_margin, heel_margin)))
+    heel_rise = jnp.where(may_rise, toe_margin, one)
+    height, rate = _ankle_1_height_and_rate(q, qd, params)
+    heel_drop = jnp.where(heel_up & (rate < 0.0), height, one)
+    return foot_roll, heel_rise, heel_drop
+
+
+def next_phase(guard, phase, next_phase_):
+    """The phase after ``guard``: a twin on ``heel_rise``, the flat phase on ``heel_drop``."""
+    return jnp.select(
+        [guard == HEEL_RISE, guard == HEEL_DROP],
+        [phase + ph.HEEL_UP_OFFSET, phase - ph.HEEL_UP_OFFSET],
+        next_phase_,
+    ).astype(jnp.int32)

@@ -1,0 +1,166 @@
+"""The heel-rise walker (``flatfoot_heel_rise``) against the base walker and physics.
+
+Where the stance heel never rises, the variant's step is the base walker's,
+with the third section coordinate ``psi_2 = -psi`` carried along; where it
+rises (the shoe walker with ``ankle_reset = 1`` and ``k = 0.2``, which the base
+walker cannot walk: its stance foot rolls onto its toe in heel pivot), the
+step conserves energy less actuator work in every phase, the heel rise
+changes neither velocity nor energy, ankle 1 rises off the ground on its toe
+circle, the toe pushes, and the step map's forward derivative matches central
+differences. Programs: the variant's step with a forward tangent (one), its
+recorder (one), and the base walker's shared step program
+(tests/flatfoot_program.py).
+"""
+
+from __future__ import annotations
+
+import functools
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from jaxwalk import compiling
+from jaxwalk.models import get_model
+from jaxwalk.models.flatfoot import events as ev
+from jaxwalk.models.flatfoot import forces as fo
+from jaxwalk.models.flatfoot import geometry as geo
+from jaxwalk.models.flatfoot import heel_rise as hr
+from jaxwalk.models.flatfoot import phases as ph
+from jaxwalk.simulate import AFTER_EVENT, BEFORE_EVENT, record_walk
+from jaxwalk.status import Status
+from jaxwalk.step import step_map
+from tests.flatfoot_program import step_fn as base_step_fn
+from tests.flatfoot_program import with_params
+
+MODEL = get_model("flatfoot_heel_rise")
+BASE = get_model("flatfoot")
+#: Where the variant's stance heel rises in heel pivot (the base walker ends
+#: that step ``foot_rolling`` onto the stance toe; docs/model.md).
+RISING = {"ankle_reset": 1.0, "k": 0.2}
+
+
+@functools.partial(compiling.jit, model=MODEL)
+def _step(v, dv, params):
+    """``(v, dv, params) -> (v_next, StepResult, dv_next)`` of the variant on level ground."""
+    (v1, res), (dv1, _) = jax.jvp(lambda v_: step_map(MODEL, v_, params), (v,), (dv,))
+    return v1, res, dv1
+
+
+_energy = jax.jit(MODEL.energy)
+_reactions = jax.jit(MODEL.reactions)
+_no_tangent = jnp.zeros(3, jnp.float64)
+
+
+def _names(ctx):
+    return [MODEL.guards[c] for c in ph.decode_history(np.asarray(ctx))]
+
+
+@pytest.fixture(scope="module")
+def rising():
+    """``(params, v, walk)``: one recorded step of the shoe walker's guess with the stiff ankle."""
+    params = with_params(MODEL.default_params(), **RISING)
+    v = MODEL.initial_guess(params)
+    y0, phase0, ctx0 = MODEL.section_to_state(v, params)
+    return params, v, record_walk(MODEL, params, y0, phase0, ctx0, n_steps=1, dt=0.05)
+
+
+def _phases(walk):
+    out, current = [], []
+    for i in range(len(walk.time)):
+        if walk.sample_kind[i] == AFTER_EVENT and current:
+            out.append(current)
+            current = []
+        current.append((jnp.asarray(walk.y[i]), int(walk.phase[i]), jnp.asarray(walk.ctx[i])))
+    return out + [current]
+
+
+def test_guard_codes_keep_the_base_walkers_and_fit_the_event_log():
+    assert MODEL.guards[: ev.HEEL_EXTREMUM] == BASE.guards[: ev.HEEL_EXTREMUM]
+    assert MODEL.guards[hr.HEEL_RISE] == "heel_rise" and MODEL.guards[hr.HEEL_DROP] == "heel_drop"
+    assert max(hr.HEEL_RISE, hr.HEEL_DROP) < ph.HISTORY_BASE  # logged events must fit a base-16 digit
+    assert [MODEL.guards[c] for c in ev.extremum_codes(MODEL)] == ["heel_extremum", "toe_extremum"]
+    assert MODEL.phases[: len(BASE.phases)] == BASE.phases
+    for twin in range(ph.SWING_HEEL_UP, ph.HEEL_PIVOT_HEEL_UP + 1):
+        mask, flat = np.asarray(ph.PHASE_MASKS[twin]), np.asarray(ph.PHASE_MASKS[twin - ph.HEEL_UP_OFFSET])
+        assert mask[ph.TOE_1] == 1 and mask[ph.ANKLE_1_X] == mask[ph.ANKLE_1_Y] == 0
+        same = [r for r in range(ph.N_CONSTRAINTS) if r not in (ph.TOE_1, ph.ANKLE_1_X, ph.ANKLE_1_Y)]
+        np.testing.assert_array_equal(mask[same], flat[same])
+
+
+def test_without_a_heel_rise_the_step_is_the_base_walkers():
+    """The shoe gait's guess at the defaults (the stance heel stays down):
+    the same events, the same next point, and ``psi_2 = -psi`` after it."""
+    params = MODEL.default_params()
+    v = MODEL.initial_guess(params)
+    assert float(v[1]) == -float(v[0])
+    v1, res, _ = _step(v, _no_tangent, params)
+    v1_base, res_base = base_step_fn(BASE.initial_guess(params), params)
+    assert int(res.status) == int(res_base.status) == Status.OK
+    assert "heel_rise" not in _names(res.ctx)
+    assert _names(res.ctx) == [BASE.guards[c] for c in ph.decode_history(np.asarray(res_base.ctx))]
+    np.testing.assert_allclose(np.asarray(v1)[[0, 2]], np.asarray(v1_base), rtol=0.0, atol=1e-12)
+    # Both feet flat at toe-strike, to the event's location (measured 9.7e-11).
+    assert abs(float(v1[1]) + float(v1[0])) < 1e-9
+    assert abs(float(res.time) - float(res_base.time)) < 1e-12
+
+
+def test_a_stiff_ankle_lifts_the_stance_heel_in_heel_pivot_and_the_step_completes(rising):
+    params, v, walk = rising
+    assert walk.status == Status.OK and walk.steps_completed == 1
+    v1, res, _ = _step(v, _no_tangent, params)
+    assert int(res.status) == Status.OK
+    names = _names(res.ctx)
+    assert names[-2:] == ["heel_rise", "toe_strike"], names
+    phases = [states[0][1] for states in _phases(walk)]
+    assert phases[-2] == ph.HEEL_PIVOT_HEEL_UP and phases[-3] == ph.HEEL_PIVOT
+    # The new trailing foot leaves on its toe with its ankle above the ground.
+    y_next, _, _ = MODEL.section_to_state(v1, params)
+    assert float(geo.ankle(y_next[:6], params, 2)[1]) > 1e-4
+    assert float(v1[1]) < -float(v1[0]) - 1e-3  # its chord turned further back than the stance leg's
+
+
+def test_energy_less_actuator_work_is_constant_in_every_phase_and_the_heel_rise_is_smooth(rising):
+    params, _, walk = rising
+    for states in _phases(walk)[:-1]:
+        y0, phase, ctx = states[0]
+        e0 = float(_energy(y0, params, phase, ctx))
+        for y, _, _ in states[1:]:
+            balance = float(_energy(y, params, phase, ctx)) - float(fo.actuator_work(y0[:6], y[:6], params, phase, ctx))
+            assert abs(balance - e0) < 1e-8, (MODEL.phases[phase], balance - e0)
+    (i,) = [i for i in np.flatnonzero(walk.sample_kind == BEFORE_EVENT) if MODEL.guards[walk.event_guard[i]] == "heel_rise"]
+    before, after = (jnp.asarray(walk.y[j]) for j in (i, i + 1))
+    np.testing.assert_allclose(np.asarray(after), np.asarray(before), rtol=0.0, atol=1e-15)  # no impact
+    e_before = float(_energy(before, params, int(walk.phase[i]), jnp.asarray(walk.ctx[i])))
+    e_after = float(_energy(after, params, int(walk.phase[i + 1]), jnp.asarray(walk.ctx[i + 1])))
+    assert abs(e_before - e_after) < 1e-12  # the spring's potential is continuous at a flat foot
+
+
+def test_on_its_toe_the_stance_foot_rises_holds_its_constraints_and_pushes(rising):
+    params, _, walk = rising
+    (heel_up,) = [s for s in _phases(walk) if s[0][1] == ph.HEEL_PIVOT_HEEL_UP]
+    heights = [float(geo.ankle(y[:6], params, 1)[1]) for y, _, _ in heel_up]
+    assert heights[0] == pytest.approx(0.0, abs=1e-11)  # the pin's drift (1.2e-12 measured)
+    assert all(b > a for a, b in zip(heights, heights[1:])) and heights[-1] > 1e-4  # 5.6e-4 measured
+    toe_1 = np.asarray(ph.anchors(params, heel_up[0][2])[0])
+    a_t = float(geo.foot_arms(params)[1])
+    for y, phase, ctx in heel_up:
+        mask = np.asarray(ph.PHASE_MASKS[phase])
+        assert np.max(np.abs(np.asarray(MODEL.constraints(y[:6], params, ctx)) * mask)) < 1e-8
+        assert abs(float(jnp.linalg.norm(geo.ankle(y[:6], params, 1) - toe_1)) - a_t) < 1e-8
+        stance, cop, _, heel = _reactions(y, params, phase, ctx)
+        assert float(stance[1]) > 0.0 and float(cop) == pytest.approx(a_t)
+        assert float(heel[1]) > 0.0
+
+
+def test_the_step_maps_derivative_matches_central_differences_across_the_heel_rise(rising):
+    params, v, _ = rising
+    h = 1e-4  # the step is accurate to ~1e-10: differences of 1e-6 would be noise at 1e-4
+    eye = jnp.eye(3)
+    for i in range(3):
+        _, res, column = _step(v, eye[i], params)
+        assert "heel_rise" in _names(res.ctx)
+        plus = _step(v + h * eye[i], _no_tangent, params)[0]
+        minus = _step(v - h * eye[i], _no_tangent, params)[0]
+        np.testing.assert_allclose(np.asarray(column), np.asarray((plus - minus) / (2 * h)), rtol=1e-5, atol=1e-6)
