@@ -480,6 +480,7 @@ OPTION_CASES = {
     "heel_brake": {"heel_brake": 1e-4},
     "ankle_rest": {"ankle_rest": 0.003},
     "ankle_reset": {"ankle_reset": 0.05},
+    "trailing_reset": {"ankle_reset": 0.05, "trailing_reset": 0.0},
 }
 
 

@@ -28,6 +28,7 @@ from jaxwalk.models.flatfoot import forces as fo
 from jaxwalk.models.flatfoot import geometry as geo
 from jaxwalk.models.flatfoot import heel_rise as hr
 from jaxwalk.models.flatfoot import phases as ph
+from jaxwalk.models.flatfoot.model import SHOE_PARAMS
 from jaxwalk.simulate import AFTER_EVENT, BEFORE_EVENT, record_walk
 from jaxwalk.status import Status
 from jaxwalk.step import step_map
@@ -164,3 +165,63 @@ def test_the_step_maps_derivative_matches_central_differences_across_the_heel_ri
         plus = _step(v + h * eye[i], _no_tangent, params)[0]
         minus = _step(v - h * eye[i], _no_tangent, params)[0]
         np.testing.assert_allclose(np.asarray(column), np.asarray((plus - minus) / (2 * h)), rtol=1e-5, atol=1e-6)
+
+
+#: The stance spring alone relaxed at toe-strike (``trailing_reset = 0``), a
+#: stiffer ankle: the gait rises on the stance toe before the other foot is flat
+#: (docs/model.md, "The heel-rise walker"); its fixed point to 5 digits, from
+#: continuation in ``k`` from the shoe gait.
+STANCE_RESET = {"ankle_reset": 1.0, "trailing_reset": 0.0, "k": 0.1}
+STANCE_RESET_GUESS = (0.3, -0.30008, -0.32271)
+
+
+def test_with_only_the_stance_spring_reset_a_stable_gait_ends_its_step_heel_up():
+    params = with_params(MODEL.default_params(), **STANCE_RESET)
+    v, eye = jnp.asarray(STANCE_RESET_GUESS), jnp.eye(3)
+    for _ in range(6):
+        v1, res, _ = _step(v, _no_tangent, params)
+        residual = v1 - v
+        if float(jnp.max(jnp.abs(residual))) < 1e-10:
+            break
+        jac = jnp.stack([_step(v, eye[i], params)[2] for i in range(3)], axis=1)
+        v = v - jnp.linalg.solve(jac - eye, residual)
+    assert int(res.status) == Status.OK and float(jnp.max(jnp.abs(residual))) < 1e-10
+    jac = jnp.stack([_step(v, eye[i], params)[2] for i in range(3)], axis=1)
+    lam = float(np.max(np.abs(np.linalg.eigvals(np.asarray(jac)))))
+    assert lam < 1.0, lam  # 0.48 measured by the sweep's search
+    assert _names(res.ctx)[-2:] == ["heel_rise", "toe_strike"]
+    # Heel up at toe-strike: the new trailing ankle starts above the ground.
+    y0, _, _ = MODEL.section_to_state(v, params)
+    assert float(geo.ankle(y0[:6], params, 2)[1]) > 1e-5
+
+
+#: The shoe walker's options over the paper's walker (the reference's parameters start from the paper's).
+_SHOE = {name: float(value) for name, value in SHOE_PARAMS.items()}
+
+
+@pytest.mark.parametrize(
+    "changes, start",
+    [
+        # The stance heel rises in heel pivot (the base walker rolls onto its toe there).
+        ({"ankle_reset": 1.0, "k": 0.15}, (0.324519973953, -0.324519973953, -0.373398980250)),
+        # The step that starts with the trailing foot raised: the next step of the one above.
+        ({"ankle_reset": 1.0, "k": 0.15}, (0.18709204, -0.18734030, -0.22846435)),
+        # Heel rise in swing, heel drop at knee-strike (an impact), heel rise again in locked swing.
+        ({"P": 0.0748, "ankle_reset": 1.0, "k": 0.2139}, (0.26713, -0.26713, -0.44476)),
+    ],
+    ids=["heel_pivot", "raised_start", "drop"],
+)
+def test_the_step_matches_the_independent_scipy_walker(changes, start):
+    """The SciPy reference written again from docs/model.md (tests/reference/flatfoot,
+    ``heel_rise=True``): the same events in the same order and the next point to 1e-8
+    (measured 8e-10 and 7e-10 where the heel rises in heel pivot and drops)."""
+    from tests.reference import flatfoot as ref
+
+    p_ref = ref.params(**{**_SHOE, **changes})
+    params = with_params(MODEL.default_params(), **p_ref)
+    v1, res, _ = _step(jnp.asarray(start), _no_tangent, params)
+    v1_ref, info = ref.step_map(np.asarray(start), p_ref, heel_rise=True)
+    assert int(res.status) == Status.OK and info["status"] == "ok"
+    assert _names(res.ctx) == [name for name, _ in info["events"]]
+    assert "heel_rise" in _names(res.ctx)
+    np.testing.assert_allclose(np.asarray(v1), v1_ref, rtol=0.0, atol=1e-8)

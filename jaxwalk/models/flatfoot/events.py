@@ -415,6 +415,8 @@ def on_event(model, guard, t, y, params, phase, ctx):
     # Toe-strike ends the step: swap the legs and move the frame.
     done = is_(TOE_STRIKE)
     y_swap, ctx_swap, shift = swap_legs(y_imp, params, ctx_new)
+    if model.heel_rise:
+        ctx_swap = heel_rise.relax_trailing_spring(y_swap[:6], params, ctx_swap)
     y_next = jnp.where(done, y_swap, y_imp)
     ctx_next = jnp.where(done, ctx_swap, ctx_new)
 

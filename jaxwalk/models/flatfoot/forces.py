@@ -51,16 +51,20 @@ def rest_angles(params, ctx):
     at which the ankle springs of foot 1 (flat) and foot 2 (on its toe) are relaxed.
 
     ``ankle_rest`` plus ``ankle_reset`` times the leg's shank angle at the
-    step's toe-strike (``ctx``): with ``ankle_reset = 1`` and ``ankle_rest = 0``
-    both springs start the step relaxed. Both angles are functions of the state
-    at the section, so the section stays ``(psi, psi_dot)``. Moving a rest angle
-    at toe-strike changes the energy the spring holds there: with
-    ``ankle_reset = 1`` the trailing leg's spring lets go of what it stored in
-    stance, energy a push-off would have used.
+    step's toe-strike (``ctx``), for the trailing spring times ``trailing_reset``
+    as well: with ``ankle_reset = 1`` and ``ankle_rest = 0`` both springs start
+    the step relaxed (``trailing_reset = 1``, the default), or only the stance
+    spring (``trailing_reset = 0``: the trailing spring is relaxed at
+    ``ankle_rest``, so it keeps the part of what it stored in stance that lies
+    beyond that angle). Both angles are functions of the state at the section,
+    so the section stays as it is. Moving a rest angle at toe-strike changes
+    the energy the spring holds there: with ``ankle_reset = 1`` the trailing
+    leg's spring lets go of what it stored in stance, energy a push-off would
+    have used (:func:`reset_work` counts what a move winds up).
     """
     reset = params["ankle_reset"]
     return (params["ankle_rest"] + reset * ctx[ph.C["shank_1_strike"]],
-            params["ankle_rest"] + reset * ctx[ph.C["shank_2_strike"]])
+            params["ankle_rest"] + reset * params["trailing_reset"] * ctx[ph.C["shank_2_strike"]])
 
 
 def _toe_deflection(ankle_2, shank_2, params, ctx):

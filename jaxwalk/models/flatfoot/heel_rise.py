@@ -70,3 +70,17 @@ def next_phase(guard, phase, next_phase_):
         [phase + ph.HEEL_UP_OFFSET, phase - ph.HEEL_UP_OFFSET],
         next_phase_,
     ).astype(jnp.int32)
+
+
+def relax_trailing_spring(q, params, ctx):
+    """``ctx`` with the trailing spring's toe-strike angle taken as its ankle angle.
+
+    ``ankle_reset`` relaxes a standing spring at the leg's angle at toe-strike
+    (:func:`forces.rest_angles`); the base walker's trailing foot is flat there,
+    so that is the shank's angle. A foot raised on its toe sits at its toe-pivot
+    angle, so the ankle's angle is the shank's less the foot's, and the spring
+    starts the step relaxed as it does in the base walker.
+    """
+    _, toe_2, _, _ = ph.anchors(params, ctx)
+    angle = q[geo.SHANK_2] - geo.toe_pivot_angle(geo.ankle(q, params, 2), toe_2)
+    return ctx.at[ph.C["shank_2_strike"]].set(angle)

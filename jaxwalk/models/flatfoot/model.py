@@ -20,7 +20,7 @@ import jax
 import jax.numpy as jnp
 
 from jaxwalk import mechanics
-from jaxwalk.models.flatfoot import events, forces
+from jaxwalk.models.flatfoot import events, forces, heel_rise
 from jaxwalk.models.flatfoot import limits as contact_limits
 from jaxwalk.models.flatfoot import geometry as geo
 from jaxwalk.models.flatfoot import phases as ph
@@ -35,7 +35,7 @@ from jaxwalk.walker import Walker
 PAPER_PARAMS = {
     "P": 0.0076, "k_hip": 0.0, "ankle_push": 0.0, "heel_brake": 0.0, "hip_double_support": 1.0,
     "swing_dorsi": 0.0, "knee_gate": 0.0, "scuff_tol": 0.03, "mu": 1e6, "ankle_rest": 0.0,
-    "ankle_reset": 0.0,
+    "ankle_reset": 0.0, "trailing_reset": 1.0,
 }  # fmt: skip
 #: Its gait ``(psi, psi_dot)`` (docs/model.md, "Defaults and the paper's walker": the nominal gait).
 PAPER_GAIT = (0.16327572732, -0.186444529299)
@@ -110,6 +110,7 @@ class FlatFootWalker(Walker):
         nonnegative("k", 0.03, "1", "ankle spring stiffness"),
         ParamSpec("ankle_rest", 0.0, "rad", "shank angle from the foot's perpendicular at which the ankle spring of a foot on the ground is relaxed (positive: shank leaning back, ankle plantarflexed)", lower=0.0, upper=0.5),
         ParamSpec("ankle_reset", 0.0, "1", "fraction of each leg's shank angle at the step's toe-strike added to ankle_rest (1 with ankle_rest 0: both springs start every step relaxed, their stored energy lost at toe-strike; 0: the rest angle is ankle_rest)", lower=0.0, upper=1.0),
+        ParamSpec("trailing_reset", 1.0, "1", "fraction of ankle_reset applied to the trailing foot's spring (0: only the stance spring is relaxed at toe-strike; the trailing spring stays relaxed at ankle_rest and keeps the rest of what it stored in stance for push-off)", lower=0.0, upper=1.0),
         ParamSpec("P", 0.045, "1", "hip torque, + on the swing thigh, - on the stance thigh"),
         nonnegative("k_hip", 0.12, "1", "hip spring stiffness between the thighs (M g L per rad), relaxed with the thighs together"),
         nonnegative("ankle_push", 0.09, "1", "push-off torque at the trailing ankle while its foot pivots on its toe (M g L), toe-down on the foot"),
@@ -201,11 +202,12 @@ class FlatFootWalker(Walker):
         q = jnp.stack([hip[0], hip[1], th1, th1 - kappa, th2, th2 - kappa])
         ctx = jnp.zeros(len(self.context), v.dtype).at[ph.C["min_clearance"]].set(ph.NO_MINIMUM)
         ctx = ctx.at[ph.C["x_toe_2"]].set(-2.0 * length * jnp.sin(psi) + a_t)
+        ctx = ctx.at[ph.C["shank_1_strike"]].set(q[geo.SHANK_1]).at[ph.C["shank_2_strike"]].set(q[geo.SHANK_2])
         return self._push_off_start(q, psi_dot, params, ctx)
 
     def _push_off_start(self, q, psi_dot, params, ctx):
-        """``(y, phase, ctx)`` at the section from its configuration ``q`` and ``psi_dot``."""
-        ctx = ctx.at[ph.C["shank_1_strike"]].set(q[geo.SHANK_1]).at[ph.C["shank_2_strike"]].set(q[geo.SHANK_2])
+        """``(y, phase, ctx)`` at the section from its configuration ``q``, ``psi_dot``
+        and its discrete state ``ctx`` (anchors and strike angles set)."""
         # Velocity: the push-off constraints hold, and thigh_1 turns at psi_dot.
         sigma = jax.jacfwd(ph.constraints)(q, params, ctx)[jnp.array(_SECTION_ROWS)]
         lhs = jnp.concatenate([sigma, jnp.eye(6, dtype=q.dtype)[geo.THIGH_1][None]], axis=0)
@@ -341,7 +343,8 @@ class FlatFootHeelRiseWalker(FlatFootWalker):
         ankle_2 = geo.ankle(q, params, 2)
         ctx = jnp.zeros(len(self.context), v.dtype).at[ph.C["min_clearance"]].set(ph.NO_MINIMUM)
         ctx = ctx.at[ph.C["x_toe_2"]].set(ankle_2[0] + jnp.sqrt(a_t**2 - ankle_2[1] ** 2))
-        return self._push_off_start(q, psi_dot, params, ctx)
+        ctx = ctx.at[ph.C["shank_1_strike"]].set(q[geo.SHANK_1])
+        return self._push_off_start(q, psi_dot, params, heel_rise.relax_trailing_spring(q, params, ctx))
 
     def state_to_section(self, y, params, ctx):
         _, delta = geo.chord(params)

@@ -17,7 +17,10 @@ from typing import Mapping
 import numpy as np
 
 from tests.reference.flatfoot import kinematics as kin
-from tests.reference.flatfoot.params import HEEL_PIVOT, LOCKED_SWING, N_Q, PUSH_OFF, SHANK_RELEASE, SWING, foot_arms
+from tests.reference.flatfoot.params import (
+    HEEL_PIVOT, HEEL_PIVOT_HEEL_UP, LOCKED_SWING, LOCKED_SWING_HEEL_UP, N_Q, PUSH_OFF, SHANK_RELEASE, SWING,
+    SWING_HEEL_UP, foot_arms,
+)  # fmt: skip
 
 ANKLE_1_X, ANKLE_1_Y, KNEE_1, KNEE_2, TOE_2, HEEL_2, ANKLE_2_X, ANKLE_2_Y, TOE_1 = range(9)
 N_C = 9
@@ -30,6 +33,10 @@ ACTIVE = {
     SWING: _STANCE,
     LOCKED_SWING: _STANCE + (KNEE_2,),
     HEEL_PIVOT: _STANCE + (KNEE_2, HEEL_2),
+    # The heel-rise variant's twins: ankle 1's pin replaced by its circle about toe 1.
+    SWING_HEEL_UP: (TOE_1, KNEE_1),
+    LOCKED_SWING_HEEL_UP: (TOE_1, KNEE_1, KNEE_2),
+    HEEL_PIVOT_HEEL_UP: (TOE_1, KNEE_1, KNEE_2, HEEL_2),
 }
 #: The toe-strike impact: the next step's push-off rows before the legs swap
 #: (ankle 2 pinned where it lands, both knees, leg 1 onto its toe circle).

@@ -19,6 +19,13 @@ toe spring's torque ``k (shank - phi)`` while foot 2 pivots on its toe; its work
 torque ``heel_brake`` (an actuator) adds a constant ``heel_brake`` to the heel
 spring's torque while foot 2 pivots on its heel; its work is ``-heel_brake``
 times the change of the heel spring's stretch.
+
+In the heel-rise variant's heel-up phases (docs/model.md, "The heel-rise
+walker") the stance foot pivots on its toe: its angle ``phi_1 = atan2(toe_1 -
+ankle_1)`` (negative toe-down, as foot 2's on its toe), its spring
+``k/2 (shank_1 - phi_1 - rest_1)^2`` with no actuator, differentiated as foot 2's,
+and its ground force the ``TOE_1`` multiplier along the foot plus ``-dV/d ankle_1``.
+Everything of leg 2 in a twin is its flat phase's (:func:`params.leg_2_phase`).
 """
 
 from __future__ import annotations
@@ -29,8 +36,10 @@ from typing import Mapping
 import numpy as np
 
 from tests.reference.flatfoot import kinematics as kin
-from tests.reference.flatfoot.constraints import ANKLE_1_X, ANKLE_1_Y, HEEL_2, TOE_2, anchors
-from tests.reference.flatfoot.params import HEEL_PIVOT, N_Q, PUSH_OFF, SHANK_1, SHANK_2, SHANK_RELEASE, THIGH_1, THIGH_2
+from tests.reference.flatfoot.constraints import ANKLE_1_X, ANKLE_1_Y, HEEL_2, TOE_1, TOE_2, anchors
+from tests.reference.flatfoot.params import (
+    HEEL_PIVOT, HEEL_UP, N_Q, PUSH_OFF, SHANK_1, SHANK_2, SHANK_RELEASE, THIGH_1, THIGH_2, leg_2_phase,
+)  # fmt: skip
 
 ON_TOE = (PUSH_OFF, SHANK_RELEASE)
 
@@ -46,20 +55,40 @@ def _torque(stretch: float, p: Mapping[str, float], phase: int) -> float:
     ``-ankle_push (rest - phi)``: it turns the foot toe-down against the shank),
     plus the heel-brake torque on the heel (potential ``heel_brake (rest - phi)``:
     it resists the foot's fall to flat)."""
-    actuator = -p["ankle_push"] if phase in ON_TOE else p["heel_brake"] if phase == HEEL_PIVOT else 0.0
+    leg_2 = leg_2_phase(phase)
+    actuator = -p["ankle_push"] if leg_2 in ON_TOE else p["heel_brake"] if leg_2 == HEEL_PIVOT else 0.0
     return p["k"] * stretch + actuator
 
 
 def _rest(p: Mapping[str, float], ctx: dict, strike: str) -> float:
     """A standing foot's spring rest angle: ``ankle_rest``, plus ``ankle_reset``
-    times that leg's shank angle at the step's toe-strike (``ctx[strike]``)."""
-    return p["ankle_rest"] + p["ankle_reset"] * ctx[strike]
+    times that leg's ankle angle at the step's toe-strike (``ctx[strike]``: the
+    shank's angle from the foot's perpendicular), for the trailing spring
+    (``shank_2_strike``) times ``trailing_reset`` as well."""
+    share = p["trailing_reset"] if strike == "shank_2_strike" else 1.0
+    return p["ankle_rest"] + p["ankle_reset"] * share * ctx[strike]
 
 
 def stance_spring_torque(q: np.ndarray, p: Mapping[str, float], ctx: dict) -> float:
     """The stance ankle spring's torque on the shank, ``-k (shank_1 - rest)`` (forward
     positive; the foot feels its opposite)."""
     return -p["k"] * (q[SHANK_1] - _rest(p, ctx, "shank_1_strike"))
+
+
+def stance_toe(q: np.ndarray, p: Mapping[str, float], ctx: dict) -> tuple[np.ndarray, float, np.ndarray]:
+    """Foot 1 on its toe: ``(w, stretch, jac)`` with ``w = toe_1 - ankle_1`` ``(2,)``
+    (``phi_1 = atan2(w)``, rad, negative toe-down), the spring's deflection
+    ``stretch = shank_1 - rest_1 - phi_1`` (rad) and ankle 1's Jacobian ``(2, 6)``."""
+    a1, jac = kin.ankle(q, p, 1)
+    w = anchors(p, ctx)["toe_1"] - a1
+    return w, q[SHANK_1] - _rest(p, ctx, "shank_1_strike") - math.atan2(w[1], w[0]), jac
+
+
+def stance_stretch(q: np.ndarray, p: Mapping[str, float], phase: int, ctx: dict) -> float:
+    """The stance spring's deflection ``shank_1 - rest_1 - phi_1`` (rad), ``phi_1 = 0`` flat."""
+    if phase in HEEL_UP:
+        return stance_toe(q, p, ctx)[1]
+    return q[SHANK_1] - _rest(p, ctx, "shank_1_strike")
 
 
 def _pivot(q, p, ctx, phase):
@@ -69,13 +98,13 @@ def _pivot(q, p, ctx, phase):
     a2, _ = kin.ankle(q, p, 2)
     if phase in ON_TOE:
         return anc["toe_2"] - a2, -1.0, q[SHANK_2] - _rest(p, ctx, "shank_2_strike")
-    if phase == HEEL_PIVOT:
+    if leg_2_phase(phase) == HEEL_PIVOT:
         return a2 - anc["heel_2"], 1.0, q[SHANK_2] + p["swing_dorsi"]
     return None
 
 
 def spring_energy(q: np.ndarray, p: Mapping[str, float], phase: int, ctx: dict) -> float:
-    energy = 0.5 * p["k"] * (q[SHANK_1] - _rest(p, ctx, "shank_1_strike")) ** 2 + 0.5 * p["k_hip"] * (q[THIGH_2] - q[THIGH_1]) ** 2
+    energy = 0.5 * p["k"] * stance_stretch(q, p, phase, ctx) ** 2 + 0.5 * p["k_hip"] * (q[THIGH_2] - q[THIGH_1]) ** 2
     pivot = _pivot(q, p, ctx, phase)
     if pivot is not None:
         w, _, rest = pivot
@@ -83,15 +112,18 @@ def spring_energy(q: np.ndarray, p: Mapping[str, float], phase: int, ctx: dict) 
     return energy
 
 
-def reset_work(q_before: np.ndarray, ctx_before: dict, q_after: np.ndarray, ctx_after: dict, p: Mapping[str, float]) -> float:
+def reset_work(q_before: np.ndarray, ctx_before: dict, q_after: np.ndarray, ctx_after: dict, p: Mapping[str, float],
+               phase_before: int = HEEL_PIVOT) -> float:
     """Work done on the ankle springs at toe-strike (docs/model.md, "Forces"): the old
     stance spring becomes the trailing toe's, the landing heel's becomes the stance
     spring, each by a move of its relaxed angle past the still foot. Energy let go
     on the way is lost; energy wound up is an actuator's work. A deflection that
-    changes sign went through slack: all of it let go, then wound from zero."""
+    changes sign went through slack: all of it let go, then wound from zero.
+    ``phase_before``: the phase toe-strike ended (heel pivot, or its heel-up twin,
+    where the old stance spring's deflection is on the toe: :func:`stance_stretch`)."""
 
-    def stance(q, ctx):
-        return q[SHANK_1] - _rest(p, ctx, "shank_1_strike")
+    def stance(q, ctx, phase=PUSH_OFF):
+        return stance_stretch(q, p, phase, ctx)
 
     def pivoting(q, ctx, phase):
         w, _, rest = _pivot(q, p, ctx, phase)
@@ -101,14 +133,19 @@ def reset_work(q_before: np.ndarray, ctx_before: dict, q_after: np.ndarray, ctx_
         kept = before**2 if before * after > 0.0 else 0.0
         return 0.5 * p["k"] * max(after**2 - kept, 0.0)
 
-    return (wound(stance(q_before, ctx_before), pivoting(q_after, ctx_after, PUSH_OFF))
-            + wound(pivoting(q_before, ctx_before, HEEL_PIVOT), stance(q_after, ctx_after)))
+    return (wound(stance(q_before, ctx_before, phase_before), pivoting(q_after, ctx_after, PUSH_OFF))
+            + wound(pivoting(q_before, ctx_before, phase_before), stance(q_after, ctx_after)))
 
 
 def joint_forces(q: np.ndarray, p: Mapping[str, float], phase: int, ctx: dict) -> np.ndarray:
     """``(6,)`` generalized spring forces ``-dV/dq`` plus the hip torque."""
     force = np.zeros(N_Q)
-    force[SHANK_1] -= p["k"] * (q[SHANK_1] - _rest(p, ctx, "shank_1_strike"))
+    if phase in HEEL_UP:  # V = k/2 stretch^2, d stretch/dq = e_shank_1 - d phi_1/dq, d phi_1/dq = -grad(w) J_1
+        w, stretch, jac = stance_toe(q, p, ctx)
+        force[SHANK_1] -= p["k"] * stretch
+        force -= p["k"] * stretch * (_angle_gradient(w) @ jac)
+    else:
+        force[SHANK_1] -= p["k"] * (q[SHANK_1] - _rest(p, ctx, "shank_1_strike"))
     pivot = _pivot(q, p, ctx, phase)
     if pivot is not None:
         w, sign, rest = pivot
@@ -127,7 +164,7 @@ def joint_forces(q: np.ndarray, p: Mapping[str, float], phase: int, ctx: dict) -
 
 def _hip_gain(p: Mapping[str, float], phase: int) -> float:
     """The fraction of the hip torque and spring acting in ``phase``."""
-    return p["hip_double_support"] if phase in ON_TOE or phase == HEEL_PIVOT else 1.0
+    return p["hip_double_support"] if phase in ON_TOE or leg_2_phase(phase) == HEEL_PIVOT else 1.0
 
 
 def hip_work(q_start: np.ndarray, q_end: np.ndarray, p: Mapping[str, float], phase: int) -> float:
@@ -143,7 +180,7 @@ def actuator_work(q_start: np.ndarray, q_end: np.ndarray, p: Mapping[str, float]
     if phase in ON_TOE:
         stretch = lambda q: q[SHANK_2] - math.atan2(*_pivot(q, p, ctx, phase)[0][::-1])
         work += p["ankle_push"] * (stretch(q_end) - stretch(q_start))
-    if phase == HEEL_PIVOT:
+    if leg_2_phase(phase) == HEEL_PIVOT:
         stretch = lambda q: _pivot(q, p, ctx, phase)[2] - math.atan2(*_pivot(q, p, ctx, phase)[0][::-1])
         work -= p["heel_brake"] * (stretch(q_end) - stretch(q_start))
     return work
@@ -153,12 +190,16 @@ def reactions(q: np.ndarray, lam: np.ndarray, p: Mapping[str, float], phase: int
     """Ground forces ``(stance, toe_2, heel_2)``, each ``(tangential, normal)``.
 
     The flat stance foot's force is its ankle pin's multiplier. A pivoting foot
-    is massless, so the ground supplies what the ankle feels from the foot: the
-    circle row's multiplier along ``(ankle - anchor)/|ankle - anchor|`` plus the
-    spring's reaction ``-dV/d ankle`` (at fixed shank angle) across it. Zero when
-    that contact is not made.
+    (foot 2 on toe or heel, foot 1 on its toe in a heel-up phase: then it is
+    ``stance``) is massless, so the ground supplies what the ankle feels from the
+    foot: the circle row's multiplier along ``(ankle - anchor)/|ankle - anchor|``
+    plus the spring's reaction ``-dV/d ankle`` (at fixed shank angle) across it.
+    Zero when that contact is not made.
     """
     stance = np.array([lam[ANKLE_1_X], lam[ANKLE_1_Y]])
+    if phase in HEEL_UP:  # sign -1: radial (ankle_1 - toe_1)/|.| = -w/|w|, -dV/da_1 = k stretch (-grad(w))
+        w, stretch, _ = stance_toe(q, p, ctx)
+        stance = -(lam[TOE_1] * w / math.hypot(w[0], w[1]) + p["k"] * stretch * _angle_gradient(w))
     toe = np.zeros(2)
     heel = np.zeros(2)
     pivot = _pivot(q, p, ctx, phase)

@@ -29,14 +29,26 @@ TOL = 1e-11
 
 
 def gait(p: Mapping[str, float] | None = None, v0=PAPER_GUESS, rtol: float = RTOL, atol: float = ATOL,
-         fd_step: float = FD_STEP, richardson: bool = True, tol: float = TOL, max_iter: int = 20) -> FixedPointResult:
+         fd_step: float = FD_STEP, richardson: bool = True, tol: float = TOL, max_iter: int = 20,
+         heel_rise: bool = False) -> FixedPointResult:
     """Fixed point ``v* = (psi, psi_dot)``, Jacobian ``dP/dv`` ``(2, 2)``, its eigenvalues
     and ``lambda_max`` at parameters ``p`` (the paper walker's, :data:`PAPER`, if ``None``).
+    With ``heel_rise`` the heel-rise variant's: ``v* = (psi, psi_2, psi_dot)``, ``(3, 3)``;
+    a 2-D ``v0`` there is read as a base section point (``psi_2 = -psi``).
 
     The result's ``status`` is ``"ok"`` or a failure name; ``step_info`` is the
     step at ``v*`` (:func:`tests.reference.flatfoot.step.run_step`'s dict: its
     ``time`` is the period, ``length`` the step length).
     """
     p = paper_params() if p is None else dict(p)
-    return fixed_point(lambda v: step_map(v, p, rtol, atol), np.asarray(v0, float), tol=tol, max_iter=max_iter,
+    v0 = np.asarray(v0, float)
+    if heel_rise and v0.size == 2:
+        v0 = heel_rise_point(v0)
+    return fixed_point(lambda v: step_map(v, p, rtol, atol, heel_rise), v0, tol=tol, max_iter=max_iter,
                        fd_step=fd_step, final_fd_step=fd_step, richardson=richardson)  # fmt: skip
+
+
+def heel_rise_point(v) -> np.ndarray:
+    """The heel-rise variant's section point ``(psi, -psi, psi_dot)`` of a base one ``(psi, psi_dot)``
+    (both feet flat: docs/model.md, "The heel-rise walker", "Section")."""
+    return np.array([float(v[0]), -float(v[0]), float(v[1])])

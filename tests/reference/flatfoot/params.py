@@ -22,7 +22,7 @@ PAPER: dict[str, float] = {
     "delay": 0.066, "knee_lock": 0.2,
     "scuff_tol": 0.03, "rho_t": 0.0, "rho_s": 0.0,
     "knee_gate": 0.0, "swing_dorsi": 0.0, "mu": 1e6,
-    "impulse_tol": 0.01, "stance_latch": 1.0, "ankle_rest": 0.0, "ankle_reset": 0.0,
+    "impulse_tol": 0.01, "stance_latch": 1.0, "ankle_rest": 0.0, "ankle_reset": 0.0, "trailing_reset": 1.0,
 }  # fmt: skip
 
 #: Newton's start for :data:`PAPER`: ``FlatFootWalker.initial_guess`` there
@@ -34,10 +34,25 @@ PAPER_GUESS = (0.16327572732, -0.186444529299)
 X_H, Y_H, THIGH_1, SHANK_1, THIGH_2, SHANK_2 = range(6)
 N_Q = 6
 
-# Phases (the order of docs/model.md's phase table).
+# Phases (the order of docs/model.md's phase table), then the heel-rise variant's
+# heel-up twins of swing, locked swing and heel pivot (docs/model.md, "The heel-rise
+# walker"): the same leg 2, the stance foot on its toe instead of flat.
 PUSH_OFF, SHANK_RELEASE, SWING, LOCKED_SWING, HEEL_PIVOT = range(5)
-PHASE_NAMES = ("push_off", "shank_release", "swing", "locked_swing", "heel_pivot")
+SWING_HEEL_UP, LOCKED_SWING_HEEL_UP, HEEL_PIVOT_HEEL_UP = range(5, 8)
+PHASE_NAMES = ("push_off", "shank_release", "swing", "locked_swing", "heel_pivot",
+               "swing_heel_up", "locked_swing_heel_up", "heel_pivot_heel_up")  # fmt: skip
 IN_AIR = (SWING, LOCKED_SWING)
+#: A flat phase's heel-up twin (``heel_rise``), and a twin's flat phase (``heel_drop``).
+TWIN = {SWING: SWING_HEEL_UP, LOCKED_SWING: LOCKED_SWING_HEEL_UP, HEEL_PIVOT: HEEL_PIVOT_HEEL_UP}
+FLAT = {up: flat for flat, up in TWIN.items()}
+#: Phases with the stance heel up (foot 1 on its toe).
+HEEL_UP = tuple(FLAT)
+
+
+def leg_2_phase(phase: int) -> int:
+    """The base phase that says what leg 2 does in ``phase``: a twin's flat phase
+    (everything that concerns leg 2 is its twin's), else ``phase`` itself."""
+    return FLAT.get(phase, phase)
 
 # Swing-knee latch states (ctx "knee_2").
 LATCHED, RELEASED, RELATCHED = "latched", "released", "relatched"

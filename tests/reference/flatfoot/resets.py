@@ -6,6 +6,12 @@ paragraphs after it). ``ctx`` is a dict: the contact anchors ``x_ankle_1``,
 ``x_toe_2``, ``y_toe_2``, ``x_heel_2``, the next ground level ``ground_next``, the
 swing knee's latch ``knee_2``, the event log ``events`` (``(name, t)`` pairs) and
 the swing foot's lowest interior minimum so far, ``min_clearance`` (``inf`` if none).
+
+The heel-rise variant's events (docs/model.md, "The heel-rise walker"):
+``heel_rise`` takes a flat phase to its heel-up twin with no impact (no entry
+check: :func:`ankle_1_lift`); ``heel_drop`` takes a twin back to its flat phase through an inelastic
+impact onto ankle 1's pin, its impulses checked as any impact's. In both
+walkers the toe-1 normal impulse of toe-strike must push (zero for a flat foot).
 """
 
 from __future__ import annotations
@@ -17,16 +23,27 @@ import numpy as np
 
 from tests.reference.flatfoot import kinematics as kin
 from tests.reference.flatfoot import constraints as con
-from tests.reference.flatfoot.dynamics import impact
+from tests.reference.flatfoot.dynamics import accelerations, impact
 from tests.reference.flatfoot.forces import ON_TOE
 from tests.reference.flatfoot.guards import G, clearance, first_failure, guard_values
 from tests.reference.flatfoot.params import (
-    HEEL_PIVOT, IN_AIR, LATCHED, LOCKED_SWING, N_Q, PUSH_OFF, RELATCHED, RELEASED, SHANK_1, SHANK_2, SHANK_RELEASE, SWING,
-    foot_arms,
+    FLAT, HEEL_PIVOT, HEEL_PIVOT_HEEL_UP, IN_AIR, LATCHED, LOCKED_SWING, LOCKED_SWING_HEEL_UP, N_Q, PUSH_OFF,
+    RELATCHED, RELEASED, SHANK_1, SHANK_2, SHANK_RELEASE, SWING, SWING_HEEL_UP, TWIN, foot_arms, leg_2_phase,
 )  # fmt: skip
 
 #: Below this (M sqrt(gL)) an impulse is numerical zero.
 IMPULSE_FLOOR = 1e-12
+#: The phase after each phase-changing event, from the phase before it.
+_NEXT = {
+    "knee_flex": {PUSH_OFF: SHANK_RELEASE, LOCKED_SWING: SWING, LOCKED_SWING_HEEL_UP: SWING_HEEL_UP},
+    "toe_off": {PUSH_OFF: LOCKED_SWING, SHANK_RELEASE: SWING},
+    "knee_strike": {SWING: LOCKED_SWING, LOCKED_SWING: LOCKED_SWING, SHANK_RELEASE: PUSH_OFF,
+                    SWING_HEEL_UP: LOCKED_SWING_HEEL_UP, LOCKED_SWING_HEEL_UP: LOCKED_SWING_HEEL_UP},
+    "heel_strike": {SWING: HEEL_PIVOT, LOCKED_SWING: HEEL_PIVOT,
+                    SWING_HEEL_UP: HEEL_PIVOT_HEEL_UP, LOCKED_SWING_HEEL_UP: HEEL_PIVOT_HEEL_UP},
+    "heel_rise": TWIN,
+    "heel_drop": FLAT,
+}  # fmt: skip
 
 
 class Transition(NamedTuple):
@@ -54,9 +71,9 @@ def settle(t: float, y: np.ndarray, p: Mapping[str, float], phase: int, ctx: dic
     for _ in range(3):
         g = guard_values(t, y, p, phase, ctx)
         if phase in ON_TOE and g[G["toe_off"]] < 0.0:
-            phase, ctx = (LOCKED_SWING if phase == PUSH_OFF else SWING), logged(ctx, "toe_off", t)
+            phase, ctx = _NEXT["toe_off"][phase], logged(ctx, "toe_off", t)
         elif g[G["knee_flex"]] < 0.0:
-            phase, ctx = (SHANK_RELEASE if phase == PUSH_OFF else SWING), logged(ctx, "knee_flex", t)
+            phase, ctx = _NEXT["knee_flex"][phase], logged(ctx, "knee_flex", t)
         else:
             return phase, ctx, g
     raise AssertionError("more than two contact changes on entering a phase")
@@ -65,7 +82,7 @@ def settle(t: float, y: np.ndarray, p: Mapping[str, float], phase: int, ctx: dic
 def entry_status(g: np.ndarray, phase: int) -> str | None:
     """A failure already due on entering ``phase``; a heel pivot with the ankle not above ground is a scuff."""
     status = first_failure(g)
-    if status is None and phase == HEEL_PIVOT and g[G["toe_strike"]] <= 0.0:
+    if status is None and leg_2_phase(phase) == HEEL_PIVOT and g[G["toe_strike"]] <= 0.0:
         status = "scuffing"
     return status
 
@@ -76,9 +93,10 @@ def _normal(a: np.ndarray, c: np.ndarray) -> float:
 
 
 def impulse_status(q: np.ndarray, imp: np.ndarray, p: Mapping[str, float], ctx: dict) -> str | None:
-    """``"running"`` if foot 1, toe 2 or the landing ankle pulls, ``"slipping"`` if foot 1
+    """``"running"`` if foot 1 (flat or on its toe), toe 2 or the landing ankle pulls, ``"slipping"`` if foot 1
     or the landing ankle leaves its friction cone, beyond ``impulse_tol`` of the
-    impact's largest normal impulse (docs/model.md, "Impulses")."""
+    impact's largest normal impulse (docs/model.md, "Impulses"). A pivoting foot's impulse
+    lies along the massless foot: its friction is checked on the force that follows (``slip``)."""
     anc = con.anchors(p, ctx)
     a1, _ = kin.ankle(q, p, 1)
     a2, _ = kin.ankle(q, p, 2)
@@ -90,7 +108,7 @@ def impulse_status(q: np.ndarray, imp: np.ndarray, p: Mapping[str, float], ctx: 
         imp[con.TOE_1] * _normal(a1, anc["toe_1"]),
     ])  # fmt: skip
     scale = p["impulse_tol"] * np.max(np.abs(normal)) + IMPULSE_FLOOR
-    pulls = min(normal[0], normal[1], normal[3]) < -scale
+    pulls = min(normal[0], normal[1], normal[3], normal[4]) < -scale
     if p["stance_latch"] < 0.5:
         pulls = pulls or min(imp[con.KNEE_1], imp[con.KNEE_2]) < -scale
     cone = lambda tx, ny: p["mu"] * ny - abs(tx)
@@ -109,6 +127,10 @@ def swap_legs(y: np.ndarray, p: Mapping[str, float], ctx: dict):
     ctx_new = dict(ctx, x_ankle_1=0.0, x_toe_2=ctx["x_ankle_1"] + a_t - landing[0], y_toe_2=-landing[1],
                    x_heel_2=0.0, ground_next=0.0, knee_2=LATCHED,
                    shank_1_strike=q_new[SHANK_1], shank_2_strike=q_new[SHANK_2])  # fmt: skip
+    if ctx.get("heel_rise"):  # the new trailing foot may stand raised on its toe: its ankle angle, not its shank's
+        ankle, _ = kin.ankle(q_new, p, 2)
+        toe = np.array([ctx_new["x_toe_2"], ctx_new["y_toe_2"]]) - ankle
+        ctx_new["shank_2_strike"] = q_new[SHANK_2] - math.atan2(toe[1], toe[0])
     return np.concatenate([q_new, qd_new]), ctx_new, float(landing[0])
 
 
@@ -126,7 +148,7 @@ def _latch_after_strike(q, p, phase, ctx) -> str:
     """Closed, unless the paper's gate (``knee_gate``) holds it open until the swing
     ankle passes the stance ankle (a strike in locked_swing is that passing)."""
     a2, _ = kin.ankle(q, p, 2)
-    passed = a2[0] > ctx["x_ankle_1"] or phase == LOCKED_SWING
+    passed = a2[0] > ctx["x_ankle_1"] or leg_2_phase(phase) == LOCKED_SWING
     return RELATCHED if (p["knee_gate"] < 0.5 or passed) else RELEASED
 
 
@@ -138,13 +160,6 @@ def _turned_up(y_before, y_after, p, ctx, minimum):
     return min([minimum] + list(h[turned]))
 
 
-#: The phase after each phase-changing event, from the phase before it.
-_NEXT = {
-    "knee_flex": {PUSH_OFF: SHANK_RELEASE, LOCKED_SWING: SWING},
-    "toe_off": {PUSH_OFF: LOCKED_SWING, SHANK_RELEASE: SWING},
-    "knee_strike": {SWING: LOCKED_SWING, LOCKED_SWING: LOCKED_SWING, SHANK_RELEASE: PUSH_OFF},
-    "heel_strike": {SWING: HEEL_PIVOT, LOCKED_SWING: HEEL_PIVOT},
-}
 _FAILURE_OF_GUARD = {"fall": "fell", "leg_range": "fell", "stall": "stalled", "running": "running",
                      "scuff": "scuffing", "slip": "slipping", "knee_buckle": "knee_buckled",
                      "foot_roll": "foot_rolling"}  # fmt: skip
@@ -158,6 +173,18 @@ def _strike_status(name, q, qd, p, ctx):
     if heel_dot[1] >= 0.0:
         return "scuffing"  # the heel gate opened on a heel below ground and rising
     return "shank_releasing" if ctx["knee_2"] == RELEASED else None
+
+
+def ankle_1_lift(y: np.ndarray, p: Mapping[str, float], phase: int, ctx: dict) -> float:
+    """Ankle 1's vertical acceleration (g, up positive) in ``phase`` at ``y`` ``(12,)``:
+    ``(J_1 qdd + Jdot_1 qd)_y``. Entering a heel-up twin it is ``-D (a_t N - tau) / a_t``
+    (``D > 0``, the ankle's inverse effective mass): zero where ``heel_rise`` crosses
+    zero and positive after, so the heel always rises and no entry check is made
+    (docs/model.md); tests/test_reference_heel_rise.py checks that."""
+    q, qd = y[:N_Q], y[N_Q:]
+    qdd, _ = accelerations(y, p, phase, ctx)
+    _, jac = kin.ankle(q, p, 1)
+    return float(jac[1] @ qdd + kin.ankle_convective(q, qd, p, 1)[1])
 
 
 def on_event(name: str, t: float, y: np.ndarray, p: Mapping[str, float], phase: int, ctx: dict) -> Transition:
@@ -176,12 +203,12 @@ def on_event(name: str, t: float, y: np.ndarray, p: Mapping[str, float], phase: 
     ctx_new = logged(ctx, name, t, **changes)
     next_phase = phase if name == "unlock" else PUSH_OFF if name == "toe_strike" else _NEXT[name][phase]
     rows = {"knee_strike": con.ACTIVE[next_phase], "heel_strike": con.ACTIVE[next_phase],
-            "toe_strike": con.TOE_STRIKE_ROWS}.get(name)  # fmt: skip
+            "heel_drop": con.ACTIVE[next_phase], "toe_strike": con.TOE_STRIKE_ROWS}.get(name)  # fmt: skip
     y_next, status = y, _strike_status(name, q, qd, p, ctx)
     if rows is not None:
         y_next, impulses = impact(y, p, ctx_new, rows)
         status = status or impulse_status(q, impulses, p, ctx_new)
-    if name == "knee_strike" and phase in IN_AIR and next_phase in IN_AIR:
+    if name == "knee_strike" and leg_2_phase(phase) in IN_AIR and leg_2_phase(next_phase) in IN_AIR:
         ctx_new["min_clearance"] = _turned_up(y, y_next, p, ctx_new, ctx_new["min_clearance"])
     done, shift = name == "toe_strike", 0.0
     if done:

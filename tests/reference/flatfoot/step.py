@@ -14,6 +14,13 @@ starts is an event at once, named by the first failure in the order of
 ``guards.FAILURES`` below zero. The swing foot's height extrema are non-terminal
 events (they change no phase): the minima give ``min_clearance``, and every
 extremum counts towards the step's event limit as it does in the engine.
+
+The heel-rise variant (``heel_rise=True``; docs/model.md, "The heel-rise
+walker") has the section ``v = (psi, psi_2, psi_dot)``: the trailing leg's chord
+angle ``psi_2`` is free (its foot on its toe, the ankle above the ground if the
+stance heel was up at toe-strike), ``psi_2 = -psi`` where both feet are flat.
+The step marks its ``ctx`` with ``"heel_rise": True``, which switches on the
+twins' guards (:mod:`tests.reference.flatfoot.guards`).
 """
 
 from __future__ import annotations
@@ -26,10 +33,12 @@ from scipy.integrate import solve_ivp
 
 from tests.reference.flatfoot import constraints as con
 from tests.reference.flatfoot import guards as gd
+from tests.reference.flatfoot import kinematics as kin
 from tests.reference.flatfoot.dynamics import vector_field
 from tests.reference.flatfoot.forces import actuator_work, reset_work
 from tests.reference.flatfoot.params import (
-    IN_AIR, LATCHED, N_Q, PUSH_OFF, SHANK_1, SHANK_2, THIGH_1, X_H, Y_H, chord, foot_arms, params as paper_params,
+    IN_AIR, LATCHED, N_Q, PUSH_OFF, SHANK_1, SHANK_2, THIGH_1, THIGH_2, X_H, Y_H, chord, foot_arms, leg_2_phase,
+    params as paper_params,
 )  # fmt: skip
 from tests.reference.flatfoot.resets import on_event, settle
 
@@ -39,17 +48,37 @@ PHASE_TIME_LIMIT, MAX_EVENTS = 12.0, 16
 START_GUARD_MARGIN = 1e-9
 
 
-def section_to_state(v, p: Mapping[str, float]):
-    """``(y (12,), phase, ctx)`` just after toe-strike from ``v = (psi, psi_dot)``."""
-    psi, psi_dot = float(v[0]), float(v[1])
+def _section_configuration(v, p: Mapping[str, float], heel_rise: bool) -> tuple[np.ndarray, float]:
+    """``(q (6,), x_toe_2)`` at the section point ``v``: both knees at ``knee_lock``, ankle 1
+    at the origin, the trailing chord at ``-psi`` (base) or ``psi_2`` (variant), its toe
+    on the ground ``sqrt(a_t^2 - y_ankle_2^2)`` ahead of its ankle (leg lengths)."""
+    psi = float(v[0])
     length, delta = chord(p)
     _, a_t = foot_arms(p)
     kappa = p["knee_lock"]
     hip = np.array([-length * math.sin(psi), length * math.cos(psi)])
-    q = np.array([hip[0], hip[1], psi + delta, psi + delta - kappa, -psi + delta, -psi + delta - kappa])
-    ctx = {"x_ankle_1": 0.0, "x_toe_2": -2.0 * length * math.sin(psi) + a_t, "y_toe_2": 0.0, "x_heel_2": 0.0,
+    if not heel_rise:
+        q = np.array([hip[0], hip[1], psi + delta, psi + delta - kappa, -psi + delta, -psi + delta - kappa])
+        return q, -2.0 * length * math.sin(psi) + a_t
+    psi_2 = float(v[1])
+    q = np.array([hip[0], hip[1], psi + delta, psi + delta - kappa, psi_2 + delta, psi_2 + delta - kappa])
+    ankle_2 = hip + length * np.array([math.sin(psi_2), -math.cos(psi_2)])
+    return q, float(ankle_2[0]) + math.sqrt(a_t * a_t - float(ankle_2[1]) ** 2)
+
+
+def section_to_state(v, p: Mapping[str, float], heel_rise: bool = False):
+    """``(y (12,), phase, ctx)`` just after toe-strike from ``v = (psi, psi_dot)`` (rad, rad per
+    sqrt(L/g)), or ``(psi, psi_2, psi_dot)`` with ``heel_rise`` (the variant's step)."""
+    q, x_toe_2 = _section_configuration(v, p, heel_rise)
+    psi_dot = float(v[-1])
+    ctx = {"x_ankle_1": 0.0, "x_toe_2": x_toe_2, "y_toe_2": 0.0, "x_heel_2": 0.0,
            "ground_next": 0.0, "knee_2": LATCHED, "events": [], "min_clearance": math.inf,
            "shank_1_strike": q[SHANK_1], "shank_2_strike": q[SHANK_2]}  # fmt: skip
+    if heel_rise:
+        ctx["heel_rise"] = True
+        # The trailing spring's ankle angle at toe-strike: its shank less its foot's (toe-down) angle.
+        ankle_2, _ = kin.ankle(q, p, 2)
+        ctx["shank_2_strike"] = q[SHANK_2] - math.atan2(-float(ankle_2[1]), x_toe_2 - float(ankle_2[0]))
     # Velocity: ankle 1 pinned, both knees locked, ankle 2 on its toe circle, and thigh_1 turning at psi_dot.
     _, sigma, _ = con.constraint_terms(q, np.zeros(N_Q), p, ctx)
     rows = [con.ANKLE_1_X, con.ANKLE_1_Y, con.KNEE_1, con.KNEE_2, con.TOE_2]
@@ -60,8 +89,12 @@ def section_to_state(v, p: Mapping[str, float]):
     return y, phase, ctx
 
 
-def state_to_section(y: np.ndarray, p: Mapping[str, float]) -> np.ndarray:
+def state_to_section(y: np.ndarray, p: Mapping[str, float], heel_rise: bool = False) -> np.ndarray:
+    """``(psi, psi_dot)`` of a state ``y`` ``(12,)`` just after toe-strike, or
+    ``(psi, psi_2, psi_dot)`` with ``heel_rise``."""
     _, delta = chord(p)
+    if heel_rise:
+        return np.array([y[THIGH_1] - delta, y[THIGH_2] - delta, y[N_Q + THIGH_1]])
     return np.array([y[THIGH_1] - delta, y[N_Q + THIGH_1]])
 
 
@@ -86,7 +119,7 @@ def _events(p, phase, ctx):
         fn.terminal, fn.direction = True, -1.0
         terminal.append((gd.NAMES[i], fn))
     extrema = []
-    if phase in IN_AIR:
+    if leg_2_phase(phase) in IN_AIR:
         for point in (0, 1):  # heel, toe
             for kind, direction in (("minimum", 1.0), ("maximum", -1.0)):
                 fn = lambda t, y, point=point: gd.clearance(y[:N_Q], y[N_Q:], p, ctx)[1][point]
@@ -144,7 +177,7 @@ def run_step(y: np.ndarray, phase: int, ctx: dict, p: Mapping[str, float], rtol=
             tr = on_event(name, t_ev, y_ev, p, phase, ctx)
             status = tr.status
             if status is None and tr.done:
-                wound = reset_work(y_ev[:N_Q], ctx, tr.y[:N_Q], tr.ctx, p)
+                wound = reset_work(y_ev[:N_Q], ctx, tr.y[:N_Q], tr.ctx, p, phase)
                 work += wound
             if status is None and not np.all(np.isfinite(tr.y)):
                 status = "nonfinite"
@@ -162,10 +195,13 @@ def run_step(y: np.ndarray, phase: int, ctx: dict, p: Mapping[str, float], rtol=
                     "min_clearance": clear if math.isfinite(clear) else math.nan}  # fmt: skip
 
 
-def step_map(v, p: Mapping[str, float] | None = None, rtol=RTOL, atol=ATOL) -> tuple[np.ndarray, dict]:
-    """The Poincaré map ``v -> (v_next, info)`` (``info``: :func:`run_step`'s dict; ``v_next`` NaN on failure)."""
+def step_map(v, p: Mapping[str, float] | None = None, rtol=RTOL, atol=ATOL,
+             heel_rise: bool = False) -> tuple[np.ndarray, dict]:
+    """The Poincaré map ``v -> (v_next, info)`` (``info``: :func:`run_step`'s dict; ``v_next`` NaN on
+    failure); ``v`` is ``(psi, psi_dot)``, or ``(psi, psi_2, psi_dot)`` with ``heel_rise``."""
     p = paper_params() if p is None else p
-    y, phase, ctx = section_to_state(v, p)
+    y, phase, ctx = section_to_state(v, p, heel_rise)
     info = run_step(y, phase, ctx, p, rtol, atol)
-    v_next = state_to_section(info["y"], p) if info["status"] == "ok" else np.full(2, math.nan)
+    n = 3 if heel_rise else 2
+    v_next = state_to_section(info["y"], p, heel_rise) if info["status"] == "ok" else np.full(n, math.nan)
     return v_next, info
