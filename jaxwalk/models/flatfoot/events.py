@@ -30,7 +30,9 @@ The swing knee has an extension stop at flexion ``knee_lock`` and a latch
   ``KNEE_BUCKLED``.
 * ``foot_roll`` (the flat stance foot's centre of pressure reaches its heel or
   toe: a rigid flat foot can hold no larger ankle torque without tipping, and
-  the phase sequence has no heel rise before toe-strike): ``FOOT_ROLLING``.
+  the base walker's phase sequence has no heel rise before toe-strike):
+  ``FOOT_ROLLING``. In the heel-rise walker only over the heel, or the toe in
+  push-off and shank release.
 * ``heel_extremum`` / ``toe_extremum``: bookkeeping of the swing foot's minimum
   clearance (:mod:`clearance`); no phase change.
 * The heel-rise walker only (``model.heel_rise``): ``heel_rise`` and ``heel_drop``
@@ -267,9 +269,13 @@ def impulse_failures(q, impulses, params, ctx):
     landing ankle must stay inside the friction cone. The heel of foot 2 is held without
     bounce (the paper's assumption 4), and its impulse, carried by the massless
     foot, lies along the foot, so its cone is checked on the force that follows
-    (the ``slip`` guard); so is toe 1's (the next step's ``toe_off``). Toe 1's
-    impulse has a normal part only with its heel up (a flat foot's lies along the
-    ground), so its check matters in the heel-rise walker alone.
+    (the ``slip`` guard). Toe 1's impulse has a normal part only with its heel
+    up (a flat foot's lies along the ground), so its push check matters in the
+    heel-rise walker alone; its friction is not checked in either walker (its
+    tangential part is ``cot(phi)`` times its normal part, unbounded for a flat
+    foot: the trailing foot is assumed not to slip at toe-strike, and in the
+    heel-rise walker neither is a raised stance toe at knee- or heel-strike;
+    docs/model.md, "The heel-rise walker").
     A knee without a latch (``stance_latch = 0``) must not be pulled by its stop.
     """
     normal = normal_impulses(q, impulses, params, ctx)

@@ -48,10 +48,11 @@ from jaxwalk.models.flatfoot import phases as ph
 
 def rest_angles(params, ctx):
     """``(stance, trailing)``: the shank angles from the foot's perpendicular (rad)
-    at which the ankle springs of foot 1 (flat) and foot 2 (on its toe) are relaxed.
+    at which the ankle springs of foot 1 (standing) and foot 2 (on its toe) are relaxed.
 
-    ``ankle_rest`` plus ``ankle_reset`` times the leg's shank angle at the
-    step's toe-strike (``ctx``), for the trailing spring times ``trailing_reset``
+    ``ankle_rest`` plus ``ankle_reset`` times the leg's ankle angle at the
+    step's toe-strike (``ctx``: the shank's angle, less the foot's where the
+    heel-rise walker's trailing foot stands raised), for the trailing spring times ``trailing_reset``
     as well: with ``ankle_reset = 1`` and ``ankle_rest = 0`` both springs start
     the step relaxed (``trailing_reset = 1``, the default), or only the stance
     spring (``trailing_reset = 0``: the trailing spring is relaxed at
@@ -168,7 +169,7 @@ def spring_energy(q, params, phase, ctx):
     return stance + trailing + hip_spring_energy(q, params)
 
 
-def reset_work(q_before, ctx_before, q_after, ctx_after, params, phase_before=ph.HEEL_PIVOT):
+def reset_work(q_before, ctx_before, q_after, ctx_after, params, phase_before):
     """Work (>= 0, ``M g L``) an actuator must do on the ankle springs at toe-strike.
 
     At toe-strike each ankle spring changes its role at a fixed configuration:

@@ -9,8 +9,8 @@ where its part of the guard is zero.
 * ``stance_friction``: ``|T| / (mu N)`` of the flat stance foot's ground force.
 * ``heel_friction``: the same for the landing heel (heel pivot only).
 * ``cop_toe``: the stance foot's centre of pressure ahead of its ankle, as a
-  fraction of the toe arm ``a_t`` (1: the foot tips onto its toe; 1 all the
-  while the heel-rise walker's stance heel is up).
+  fraction of the toe arm ``a_t`` (1: the foot tips onto its toe; NaN while
+  the heel-rise walker's stance heel is up, as ``cop_heel``).
 * ``cop_heel``: the centre of pressure behind the ankle, as a fraction of the
   heel arm ``a_h`` (1: the foot tips onto its heel).
 
@@ -44,14 +44,15 @@ def limit_use(model, y, params, phase, ctx):
     stance, _, _, heel = forces.contact_reactions(q, lam, params, phase, ctx)
     a_h, a_t = geo.foot_arms(params)
     mu = params["mu"]
-    # Moment form, as the foot_roll guard: tau = N * cop (at the toe with the heel up).
-    tau = jnp.where(ph.HEEL_UP[phase], a_t * stance[1], forces.stance_ankle_torque(q, params, ctx))
+    # Moment form, as the foot_roll guard: tau = N * cop.
+    tau = forces.stance_ankle_torque(q, params, ctx)
     heel_friction = jnp.where(ph.ON_HEEL[phase], _ratio(jnp.abs(heel[0]), mu * heel[1]), jnp.nan)
+    flat = ~ph.HEEL_UP[phase]  # a foot on its toe has no centre of pressure to move
     return jnp.stack(
         [
             _ratio(jnp.abs(stance[0]), mu * stance[1]),
             heel_friction,
-            _ratio(tau, a_t * stance[1]),
-            _ratio(-tau, a_h * stance[1]),
+            jnp.where(flat, _ratio(tau, a_t * stance[1]), jnp.nan),
+            jnp.where(flat, _ratio(-tau, a_h * stance[1]), jnp.nan),
         ]
     )

@@ -109,7 +109,7 @@ class FlatFootWalker(Walker):
         positive("r", 0.4, "1", "foot ratio, (heel to ankle) / (ankle to toe)"),
         nonnegative("k", 0.03, "1", "ankle spring stiffness"),
         ParamSpec("ankle_rest", 0.0, "rad", "shank angle from the foot's perpendicular at which the ankle spring of a foot on the ground is relaxed (positive: shank leaning back, ankle plantarflexed)", lower=0.0, upper=0.5),
-        ParamSpec("ankle_reset", 0.0, "1", "fraction of each leg's shank angle at the step's toe-strike added to ankle_rest (1 with ankle_rest 0: both springs start every step relaxed, their stored energy lost at toe-strike; 0: the rest angle is ankle_rest)", lower=0.0, upper=1.0),
+        ParamSpec("ankle_reset", 0.0, "1", "fraction of each leg's shank angle at the step's toe-strike added to ankle_rest (1 with ankle_rest 0: both springs start every step relaxed, their stored energy lost at toe-strike, the trailing one by its share trailing_reset; 0: the rest angle is ankle_rest)", lower=0.0, upper=1.0),
         ParamSpec("trailing_reset", 1.0, "1", "fraction of ankle_reset applied to the trailing foot's spring (0: only the stance spring is relaxed at toe-strike; the trailing spring stays relaxed at ankle_rest and keeps the rest of what it stored in stance for push-off)", lower=0.0, upper=1.0),
         ParamSpec("P", 0.045, "1", "hip torque, + on the swing thigh, - on the stance thigh"),
         nonnegative("k_hip", 0.12, "1", "hip spring stiffness between the thighs (M g L per rad), relaxed with the thighs together"),

@@ -61,8 +61,10 @@ N_CONSTRAINTS = 9
 #: lowest interior minimum of the swing foot's heel or toe height above the
 #: ground since the section (:data:`NO_MINIMUM` if none); ``heel_dir`` and
 #: ``toe_dir`` (+1 rising, -1 falling) tell :mod:`clearance` which extremum
-#: comes next. ``shank_1_strike``, ``shank_2_strike`` are the shank angles of
-#: both legs at the step's toe-strike (both feet flat), where the springs of
+#: comes next. ``shank_1_strike``, ``shank_2_strike`` are the ankle angles of
+#: both legs at the step's toe-strike (the shank's from the foot's perpendicular:
+#: the shank angles where both feet are flat; the heel-rise walker's raised
+#: trailing foot's less its toe-pivot angle), where the springs of
 #: ``ankle_reset`` are relaxed (:func:`jaxwalk.models.flatfoot.forces.rest_angles`).
 CONTEXT = (
     "x_ankle_1",
