@@ -139,7 +139,7 @@ def guard_values(model, t, y, params, phase, ctx):
     q, qd = model.split(y)
     flat = ph.FLAT_PHASE[phase]
     _, lam = model.dynamics(y, params, phase, ctx)
-    stance, _, toe, heel = forces.contact_reactions(q, lam, params, phase, ctx)
+    stance, _, toe, heel = forces.contact_reactions(q, lam, params, phase, ctx, model.heel_rise)
     gn, knee_state = ctx[ph.C["ground_next"]], ctx[ph.C["knee_2"]]
     a_h, a_t = geo.foot_arms(params)
     one = jnp.ones_like(t)
@@ -434,6 +434,7 @@ def on_event(model, guard, t, y, params, phase, ctx):
     status = jnp.where((status == Status.IN_PROGRESS) & sinks, jnp.int8(Status.SCUFFING), status)
 
     ok = status == Status.IN_PROGRESS
+    reset = forces.reset_work(q, ctx_new, y_swap[:6], ctx_swap, params, phase, model.heel_rise)
     return Transition(
         phase=jnp.where(ok, next_phase, phase).astype(jnp.int32),
         y=jnp.where(ok, y_next, y),
@@ -441,5 +442,5 @@ def on_event(model, guard, t, y, params, phase, ctx):
         status=status,
         step_done=done & ok,
         shift=jnp.where(done & ok, shift, 0.0),
-        work=jnp.where(done & ok, forces.reset_work(q, ctx_new, y_swap[:6], ctx_swap, params, phase), 0.0),
+        work=jnp.where(done & ok, reset, 0.0),
     )

@@ -87,9 +87,13 @@ def _stance_toe_spring(ankle_1, shank_1, params, ctx):
     return 0.5 * params["k"] * _stance_toe_deflection(ankle_1, shank_1, params, ctx) ** 2
 
 
-def _stance_deflection(q, params, phase, ctx):
-    """The stance ankle's deflection in ``phase``: foot 1 flat, or on its toe where the heel is up."""
+def _stance_deflection(q, params, phase, ctx, heel_rise):
+    """The stance ankle's deflection in ``phase``: foot 1 flat, or on its toe where
+    the heel is up (only in the heel-rise walker, ``heel_rise``: a Python bool, so
+    the base walker's programs hold no toe branch)."""
     flat = q[geo.SHANK_1] - rest_angles(params, ctx)[0]
+    if not heel_rise:
+        return flat
     on_toe = _stance_toe_deflection(geo.ankle(q, params, 1), q[geo.SHANK_1], params, ctx)
     return jnp.where(ph.HEEL_UP[phase], on_toe, flat)
 
@@ -135,7 +139,7 @@ def _heel_load(ankle_2, shank_2, params, ctx):
     return _heel_spring(ankle_2, shank_2, params, ctx) + _heel_brake(ankle_2, shank_2, params, ctx)
 
 
-def ankle_deflections(q, params, phase, ctx):
+def ankle_deflections(q, params, phase, ctx, heel_rise=False):
     """``(stance, trailing)``: how far foot 1's and foot 2's ankle springs are turned
     from relaxed in ``phase`` (rad; ``shank - phi - rest``, positive with the shank
     turned back; 0 for a foot in the air).
@@ -144,9 +148,10 @@ def ankle_deflections(q, params, phase, ctx):
     and shank release, on its heel in heel pivot (relaxed at its landing angle,
     ``rest = -swing_dorsi``), and is relaxed in swing. A foot standing on the
     ground (flat or on its toe) is relaxed at its :func:`rest_angles` (the
-    defaults: the shank perpendicular to the foot).
+    defaults: the shank perpendicular to the foot). ``heel_rise`` (Python bool):
+    the heel-rise walker's phases, where the stance foot may stand on its toe.
     """
-    stance = _stance_deflection(q, params, phase, ctx)
+    stance = _stance_deflection(q, params, phase, ctx, heel_rise)
     ankle_2, shank_2 = geo.ankle(q, params, 2), q[geo.SHANK_2]
     trailing = jnp.where(
         ph.ON_TOE[phase],
@@ -156,10 +161,10 @@ def ankle_deflections(q, params, phase, ctx):
     return stance, trailing
 
 
-def spring_energy(q, params, phase, ctx):
+def spring_energy(q, params, phase, ctx, heel_rise=False):
     """Elastic energy of both ankle springs (``k/2`` times their :func:`ankle_deflections`
     squared) and the hip spring in ``phase`` (scalar)."""
-    stance = 0.5 * params["k"] * _stance_deflection(q, params, phase, ctx) ** 2
+    stance = 0.5 * params["k"] * _stance_deflection(q, params, phase, ctx, heel_rise) ** 2
     ankle_2, shank_2 = geo.ankle(q, params, 2), q[geo.SHANK_2]
     trailing = jnp.where(
         ph.ON_TOE[phase],
@@ -169,7 +174,7 @@ def spring_energy(q, params, phase, ctx):
     return stance + trailing + hip_spring_energy(q, params)
 
 
-def reset_work(q_before, ctx_before, q_after, ctx_after, params, phase_before):
+def reset_work(q_before, ctx_before, q_after, ctx_after, params, phase_before, heel_rise=False):
     """Work (>= 0, ``M g L``) an actuator must do on the ankle springs at toe-strike.
 
     At toe-strike each ankle spring changes its role at a fixed configuration:
@@ -192,10 +197,11 @@ def reset_work(q_before, ctx_before, q_after, ctx_after, params, phase_before):
             (heel pivot, discrete state ``ctx_before``); ``q_after``: the same
             configuration after the swap (push-off, ``ctx_after``).
         phase_before: the phase toe-strike ended (``heel_pivot``, or the heel-rise
-            walker's ``heel_pivot_heel_up``, whose stance spring is on its toe).
+            walker's ``heel_pivot_heel_up``, whose stance spring is on its toe;
+            ``heel_rise``, a Python bool, says which walker).
         params: the walker's parameters (``k`` and the rest angles' options).
     """
-    stance_before, landing_before = ankle_deflections(q_before, params, phase_before, ctx_before)
+    stance_before, landing_before = ankle_deflections(q_before, params, phase_before, ctx_before, heel_rise)
     stance_after, trailing_after = ankle_deflections(q_after, params, ph.PUSH_OFF, ctx_after)
 
     def wound(before, after):
@@ -247,9 +253,9 @@ def actuator_potential(q, params, phase, ctx):
     return hip + hold + ankle_potential(q, params, phase, ctx)
 
 
-def joint_forces(q, params, phase, ctx):
+def joint_forces(q, params, phase, ctx, heel_rise=False):
     """Springs (``-dV/dq``) plus the actuators (``-dU/dq``, :func:`actuator_potential`), ``(n_q,)``."""
-    spring = -jax.grad(spring_energy)(q, params, phase, ctx)
+    spring = -jax.grad(lambda q_: spring_energy(q_, params, phase, ctx, heel_rise))(q)
     actuators = -jax.grad(actuator_potential)(q, params, phase, ctx)
     return spring + actuators
 
@@ -287,7 +293,7 @@ def stance_ankle_torque(q, params, ctx):
     return -params["k"] * (q[geo.SHANK_1] - rest_angles(params, ctx)[0])
 
 
-def contact_reactions(q, lam, params, phase, ctx):
+def contact_reactions(q, lam, params, phase, ctx, heel_rise=False):
     """Ground reactions (slope frame; y is the normal force, positive pushing up).
 
     Args:
@@ -299,16 +305,19 @@ def contact_reactions(q, lam, params, phase, ctx):
         of pressure measured forward from the ankle (scalar; must lie in
         ``[-a_h, a_t]`` for the foot to stay flat; ``a_t`` with the heel up, the
         force then being the toe's), and the forces on the toe and heel of foot 2
-        ``(2,)`` each, zero when not in contact.
+        ``(2,)`` each, zero when not in contact. ``heel_rise`` (Python bool): the
+        heel-rise walker, whose stance foot may stand on its toe.
     """
     toe_1, toe_2, heel_2, _ = ph.anchors(params, ctx)
-    heel_up = ph.HEEL_UP[phase]
-    pinned = jnp.stack([lam[ph.ANKLE_1_X], lam[ph.ANKLE_1_Y]])
-    on_toe = _pivot_reaction(
-        lam[ph.TOE_1], geo.ankle(q, params, 1), q[geo.SHANK_1], params, ctx, toe_1, _stance_toe_spring
-    )
-    stance = jnp.where(heel_up, on_toe, pinned)
-    cop = jnp.where(heel_up, geo.foot_arms(params)[1], stance_ankle_torque(q, params, ctx) / stance[1])
+    stance = jnp.stack([lam[ph.ANKLE_1_X], lam[ph.ANKLE_1_Y]])
+    cop = stance_ankle_torque(q, params, ctx) / stance[1]
+    if heel_rise:
+        heel_up = ph.HEEL_UP[phase]
+        on_toe = _pivot_reaction(
+            lam[ph.TOE_1], geo.ankle(q, params, 1), q[geo.SHANK_1], params, ctx, toe_1, _stance_toe_spring
+        )
+        stance = jnp.where(heel_up, on_toe, stance)
+        cop = jnp.where(heel_up, geo.foot_arms(params)[1], stance_ankle_torque(q, params, ctx) / stance[1])
     ankle_2, shank_2 = geo.ankle(q, params, 2), q[geo.SHANK_2]
     toe = _pivot_reaction(lam[ph.TOE_2], ankle_2, shank_2, params, ctx, toe_2, _toe_load)
     heel = _pivot_reaction(lam[ph.HEEL_2], ankle_2, shank_2, params, ctx, heel_2, _heel_load)

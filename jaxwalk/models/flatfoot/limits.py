@@ -41,7 +41,7 @@ def limit_use(model, y, params, phase, ctx):
     """``(4,)`` use of the limits :data:`LIMIT_NAMES` in ``(y, phase, ctx)`` (1: at the edge)."""
     q, _ = model.split(y)
     _, lam = model.dynamics(y, params, phase, ctx)
-    stance, _, _, heel = forces.contact_reactions(q, lam, params, phase, ctx)
+    stance, _, _, heel = forces.contact_reactions(q, lam, params, phase, ctx, model.heel_rise)
     a_h, a_t = geo.foot_arms(params)
     mu = params["mu"]
     # Moment form, as the foot_roll guard: tau = N * cop.

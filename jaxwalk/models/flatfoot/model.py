@@ -178,10 +178,10 @@ class FlatFootWalker(Walker):
         return ph.PHASE_MASKS[phase]
 
     def joint_forces(self, q, qd, params, phase, ctx):
-        return forces.joint_forces(q, params, phase, ctx)
+        return forces.joint_forces(q, params, phase, ctx, self.heel_rise)
 
     def spring_energy(self, q, params, phase, ctx):
-        return forces.spring_energy(q, params, phase, ctx)
+        return forces.spring_energy(q, params, phase, ctx, self.heel_rise)
 
     # ------------------------------------------------------------ events
     def guard_values(self, t, y, params, phase, ctx):
@@ -255,7 +255,7 @@ class FlatFootWalker(Walker):
         """Ground reactions ``(stance, cop, toe_2, heel_2)``; see :func:`forces.contact_reactions`."""
         q, _ = self.split(y)
         _, lam = self.dynamics(y, params, phase, ctx)
-        return forces.contact_reactions(q, lam, params, phase, ctx)
+        return forces.contact_reactions(q, lam, params, phase, ctx, self.heel_rise)
 
     def actuator_power(self, q, qd, params, phase, ctx):
         """Power of the hip and ankle actuators (the recorder integrates it to work)."""
