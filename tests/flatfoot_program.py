@@ -1,4 +1,4 @@
-"""The flat-foot step program the flat-foot test modules share, and their Newton helper.
+"""The flat-foot step program the flat-foot test modules share, and their Newton and walk helpers.
 
 One jitted function at import, so every module of a test process that steps the
 walker reuses one compiled program (a step map and a separate ``jvp`` would
@@ -15,7 +15,9 @@ import jax.numpy as jnp
 from jaxwalk import compiling
 from jaxwalk.gait import failure_cause
 from jaxwalk.models import get_model
+from jaxwalk.models.flatfoot import forces
 from jaxwalk.models.flatfoot.model import PAPER_PARAMS
+from jaxwalk.simulate import AFTER_EVENT
 from jaxwalk.step import step_map
 
 MODEL = get_model("flatfoot")
@@ -75,3 +77,34 @@ def failure_names(params, res):
     what a gait search keeps and a sweep writes); ``limit`` ``None`` where none is at its edge."""
     phase, guard, limit = (int(i) for i in _failure_cause(params, res))
     return MODEL.phases[phase], MODEL.guards[guard], MODEL.limits[limit] if limit >= 0 else None
+
+
+def walk_phases(walk):
+    """A recorded walk's samples split into continuous phases: lists of ``(y, phase, ctx)``
+    (the last list is the next step's first instant)."""
+    out, current = [], []
+    for i in range(len(walk.time)):
+        if walk.sample_kind[i] == AFTER_EVENT and current:
+            out.append(current)
+            current = []
+        current.append((jnp.asarray(walk.y[i]), int(walk.phase[i]), jnp.asarray(walk.ctx[i])))
+    return out + [current]
+
+
+def energy_drifts(model, params, walk):
+    """``[(phase name, drift)]``: for every sample of every continuous phase of a
+    recorded walk, the change of energy less the actuators' work since the phase
+    began (zero up to integration error where the bookkeeping is right)."""
+    energy, out = _jitted_energy(model), []
+    for states in walk_phases(walk)[:-1]:
+        y0, phase, ctx = states[0]
+        e0 = float(energy(y0, params, phase, ctx))
+        for y, _, _ in states[1:]:
+            work = float(forces.actuator_work(y0[:6], y[:6], params, phase, ctx))
+            out.append((model.phases[phase], float(energy(y, params, phase, ctx)) - work - e0))
+    return out
+
+
+@functools.lru_cache(maxsize=None)
+def _jitted_energy(model):
+    return jax.jit(model.energy)

@@ -32,7 +32,7 @@ from jaxwalk.simulate import AFTER_EVENT, BEFORE_EVENT, record_walk
 from jaxwalk.status import Status
 from jaxwalk.stepdown import StepDownOptions, h_max
 from tests.flatfoot_program import LEVEL as _LEVEL, NO_TANGENT as _NO_TANGENT, STEP_PROGRAM, newton as _newton
-from tests.flatfoot_program import with_params as _with
+from tests.flatfoot_program import energy_drifts, walk_phases, with_params as _with
 
 MODEL = get_model("flatfoot")
 
@@ -111,17 +111,6 @@ def walk(params, fixed_point):
     return record_walk(MODEL, params, y0, phase0, ctx0, n_steps=1, dt=0.05)
 
 
-def _phases(walk):
-    """The recorded samples split into continuous phases: lists of ``(y, phase, ctx)``."""
-    out, current = [], []
-    for i in range(len(walk.time)):
-        if walk.sample_kind[i] == AFTER_EVENT and current:
-            out.append(current)
-            current = []
-        current.append((jnp.asarray(walk.y[i]), int(walk.phase[i]), jnp.asarray(walk.ctx[i])))
-    return out + [current]
-
-
 def _events(walk):
     """``(guard, before, after)`` for each event; ``before``/``after`` are ``(y, phase, ctx)``."""
     out = []
@@ -165,7 +154,7 @@ def test_recorded_step_matches_step_map(params, step_fn, fixed_point, walk):
     assert walk.status == Status.OK and walk.steps_completed == 1
     # The knee leaves its stop at the unlock itself, so push-off gives way to shank release at once.
     # The swing foot's height extrema are events (they track min_clearance) that change no phase.
-    phases = [p[0][1] for p in _phases(walk)]
+    phases = [p[0][1] for p in walk_phases(walk)]
     phases = [p for i, p in enumerate(phases) if i == 0 or p != phases[i - 1]]
     assert phases == [ph.PUSH_OFF, ph.SHANK_RELEASE, ph.SWING, ph.LOCKED_SWING, ph.HEEL_PIVOT, ph.PUSH_OFF]
     events = [e[0] for e in _events(walk) if e[0] not in _EXTREMA]
@@ -249,12 +238,8 @@ def test_step_matches_the_independent_scipy_walker(params, step_fn, fixed_point)
 
 # ----------------------------------------------------------------- physics
 def test_energy_minus_actuator_work_is_constant_in_every_phase(params, walk):
-    for states in _phases(walk)[:-1]:  # the last is the next step's first instant
-        y0, phase, ctx = states[0]
-        e0 = float(_energy(y0, params, phase, ctx))
-        for y, _, _ in states[1:]:
-            balance = float(_energy(y, params, phase, ctx)) - float(fo.actuator_work(y0[:6], y[:6], params, phase, ctx))
-            assert abs(balance - e0) < 1e-8, (MODEL.phases[phase], balance - e0)
+    for name, drift in energy_drifts(MODEL, params, walk):
+        assert abs(drift) < 1e-8, (name, drift)
 
 
 def test_no_event_adds_energy(params, walk):
@@ -285,7 +270,7 @@ def test_step_work_pays_for_the_losses_of_the_periodic_step(params, step_fn, fix
 
 
 def test_constraints_hold_along_the_step(params, walk):
-    for states in _phases(walk):
+    for states in walk_phases(walk):
         for y, phase, ctx in states:
             mask = np.asarray(ph.PHASE_MASKS[phase])
             position, velocity = _constraint_residuals(y, params, ctx)
@@ -295,7 +280,7 @@ def test_constraints_hold_along_the_step(params, walk):
 
 def test_stance_normal_forces_are_compressive(params, walk):
     a_h, a_t = geo.foot_arms(params)
-    for states in _phases(walk):
+    for states in walk_phases(walk):
         for y, phase, ctx in states:
             stance, cop, toe, heel = _reactions(y, params, phase, ctx)
             assert float(stance[1]) > 0.0
@@ -442,7 +427,7 @@ def test_a_guard_that_just_fired_hides_no_other_crossing(params, step_fn):
 def test_the_stance_knee_is_a_latch_and_buckles_on_its_stop_alone(params, step_fn, fixed_point, walk):
     # The stance knee's constraint pulls (holds the knee against flexing) all step:
     # a latch, stated as stance_latch = 1. On its extension stop alone it buckles.
-    for states in _phases(walk)[:-1]:
+    for states in walk_phases(walk)[:-1]:
         for y, phase, ctx in states:
             assert float(_stance_knee_torque(y, params, phase, ctx)) < 0.0
     _, res = step_fn(fixed_point[0], _with(params, stance_latch=0.0))
@@ -456,7 +441,7 @@ def test_min_clearance_is_the_lowest_swing_minimum_of_the_recorded_step(params, 
     _, res = step_fn(fixed_point[0], params)
     tracked = float(cl.min_clearance(res.ctx))
     sampled = []
-    for states in _phases(walk):
+    for states in walk_phases(walk):
         for y, phase, ctx in states:
             if phase in (ph.SWING, ph.LOCKED_SWING):
                 sampled.append(float(_lowest_point(y, params, ctx)))
@@ -495,12 +480,8 @@ def option_walk(request, params, fixed_point):
 def test_each_option_keeps_energy_balance_and_no_event_adds_energy(option_walk):
     p, walk = option_walk
     assert walk.status == Status.OK and walk.steps_completed == 1
-    for states in _phases(walk)[:-1]:
-        y0, phase, ctx = states[0]
-        e0 = float(_energy(y0, p, phase, ctx))
-        for y, _, _ in states[1:]:
-            balance = float(_energy(y, p, phase, ctx)) - float(fo.actuator_work(y0[:6], y[:6], p, phase, ctx))
-            assert abs(balance - e0) < 1e-8, (MODEL.phases[phase], balance - e0)
+    for name, drift in energy_drifts(MODEL, p, walk):
+        assert abs(drift) < 1e-8, (name, drift)
     for guard, loss, _ in _event_losses(walk, p):
         assert loss > -1e-10, MODEL.guards[guard]
 
@@ -527,7 +508,7 @@ def test_an_ankle_spring_wound_up_at_toe_strike_is_actuator_work(step_fn):
     assert all(loss > -1e-10 for _, loss, _ in _event_losses(walk, p))
     # The engine's step work: each phase's actuator work (exact, from potentials) and the reset's.
     phases = sum(float(fo.actuator_work(states[0][0][:6], states[-1][0][:6], p, states[0][1], states[0][2]))
-                 for states in _phases(walk)[:-1])
+                 for states in walk_phases(walk)[:-1])
     _, res = step_fn(MODEL.initial_guess(p), p)
     assert abs(float(res.work) - (phases + work)) < 1e-9, (float(res.work), phases, work)
 
@@ -590,7 +571,7 @@ def test_hip_spring_swing_foot_stays_above_the_ground_at_every_sample(hip_spring
     y0, phase0, ctx0 = MODEL.section_to_state(v, p)
     walk = record_walk(MODEL, p, y0, phase0, ctx0, n_steps=1, dt=0.02)
     passed = False
-    for y, phase, ctx in (s for states in _phases(walk) for s in states):
+    for y, phase, ctx in (s for states in walk_phases(walk) for s in states):
         if phase in (ph.SWING, ph.LOCKED_SWING):
             assert float(_lowest_point(y, p, ctx)) >= -1e-12
             q = np.asarray(y[:6])
