@@ -215,3 +215,30 @@ def test_the_step_matches_the_independent_scipy_walker(changes, start):
     assert "heel_rise" in _names(res.ctx)
     np.testing.assert_allclose(np.asarray(v1), v1_ref, rtol=0.0, atol=1e-8)
     assert abs(float(res.time) - info["time"]) < 1e-8 and abs(float(res.work) - info["work"]) < 1e-8
+
+
+
+def test_a_raised_trailing_heel_coming_down_is_watched_in_push_off():
+    """``scuff`` in push-off (the variant only): while the raised trailing foot lowers
+    its heel, its height to flat (ankle 2 above its toe); 1 while it rises. The same
+    state in the SciPy reference gives the same value."""
+    from tests.reference import flatfoot as ref
+    from tests.reference.flatfoot.guards import G, guard_values
+
+    params = with_params(MODEL.default_params(), ankle_reset=1.0, k=0.15)
+    start = jnp.asarray([0.18709204, -0.18734030, -0.22846435])  # the stiff step's end: trailing foot raised
+    y, phase, ctx = MODEL.section_to_state(start, params)
+    assert int(phase) == ph.PUSH_OFF
+    height = float(geo.ankle(y[:6], params, 2)[1] - ctx[ph.C["y_toe_2"]])
+    assert height > 1e-5
+    scuff = MODEL.guards.index("scuff")
+    lowering = jnp.concatenate([y[:6], -y[6:]])  # the same motion reversed: the ankle comes down
+    rate = lambda y_: jax.jvp(lambda q: geo.ankle(q, params, 2)[1], (y_[:6],), (y_[6:],))[1]
+    assert float(rate(y)) > 0.0 > float(rate(lowering))
+    assert float(MODEL.guard_values(jnp.zeros(()), y, params, phase, ctx)[scuff]) == 1.0
+    assert float(MODEL.guard_values(jnp.zeros(()), lowering, params, phase, ctx)[scuff]) == pytest.approx(height, abs=1e-15)
+    p_ref = ref.params(**{name: float(value) for name, value in params.items()})
+    y_ref, phase_ref, ctx_ref = ref.section_to_state(np.asarray(start), p_ref, heel_rise=True)
+    lowering_ref = np.concatenate([y_ref[:6], -y_ref[6:]])
+    assert guard_values(0.0, lowering_ref, p_ref, phase_ref, ctx_ref)[G["scuff"]] == pytest.approx(height, abs=1e-12)
+    assert guard_values(0.0, y_ref, p_ref, phase_ref, ctx_ref)[G["scuff"]] == 1.0

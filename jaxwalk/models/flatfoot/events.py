@@ -175,6 +175,8 @@ def guard_values(model, t, y, params, phase, ctx):
         heel_pt[1] - _ground_under(heel_pt[0], ctx, params), toe_pt[1] - _ground_under(toe_pt[0], ctx, params)
     )
     scuff = jnp.where(in_air, clearance_ + params["scuff_tol"], one)
+    if model.heel_rise:
+        scuff = jnp.minimum(scuff, heel_rise.trailing_heel_landing(q, qd, params, phase, ctx))
     slip = jnp.minimum(_cone(stance, params), jnp.where(ph.ON_HEEL[phase], _cone(heel, params), one))
     # A knee on its extension stop (no latch) holds only while the stop pushes:
     # the stance knee always, the landing knee in heel pivot.

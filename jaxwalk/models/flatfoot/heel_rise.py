@@ -84,3 +84,18 @@ def relax_trailing_spring(q, params, ctx):
     _, toe_2, _, _ = ph.anchors(params, ctx)
     angle = q[geo.SHANK_2] - geo.toe_pivot_angle(geo.ankle(q, params, 2), toe_2)
     return ctx.at[ph.C["shank_2_strike"]].set(angle)
+
+
+def trailing_heel_landing(q, qd, params, phase, ctx):
+    """The raised trailing foot's height to flat while it lowers its heel, in push-off
+    and shank release (1 elsewhere): ankle 2's height above its toe, gated on it falling.
+
+    A foot pivoting toe-down on its toe has its heel above the ground; the heel
+    lands when the ankle comes down to the toe's height, and the step ends
+    ``SCUFFING`` there (a double flat stance is not modelled). The base walker's
+    trailing foot starts flat and must rise at once (``events.trailing_heel_sinks``);
+    this walker's may start raised.
+    """
+    _, toe_2, _, _ = ph.anchors(params, ctx)
+    height, rate = jax.jvp(lambda q_: geo.ankle(q_, params, 2)[1], (q,), (qd,))
+    return jnp.where(ph.ON_TOE[phase] & (rate < 0.0), height - toe_2[1], jnp.ones_like(height))

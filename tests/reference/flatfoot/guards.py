@@ -12,7 +12,9 @@ walker") adds ``heel_rise`` (the toe side of ``foot_roll``, in swing, locked
 swing and heel pivot) and ``heel_drop`` (ankle 1's height, gated on it falling,
 in their heel-up twins); there ``foot_roll`` keeps only its heel side in the flat
 twins' phases and is 1 in the heel-up ones, and ``running`` and ``slip`` read the
-toe's force. Every guard of leg 2 in a twin is its flat phase's.
+toe's force, and in push-off and shank release ``scuff`` watches the raised
+trailing foot's heel coming down (ankle 2 to its toe's height, gated on it
+falling). Every guard of leg 2 in a twin is its flat phase's.
 """
 
 from __future__ import annotations
@@ -84,7 +86,7 @@ def guard_values(t: float, y: np.ndarray, p: Mapping[str, float], phase: int, ct
         g[G["toe_off"]] = cone(toe, p)
     if leg_2 in (SHANK_RELEASE, SWING) and kin.flexion(qd, 2) < 0.0:
         g[G["knee_strike"]] = kin.flexion(q, 2) - p["knee_lock"]
-    a2, _ = kin.ankle(q, p, 2)
+    a2, jac_2 = kin.ankle(q, p, 2)
     if p["knee_gate"] > 0.5 and leg_2 == LOCKED_SWING and knee_2 == RELEASED:
         g[G["knee_strike"]] = ctx["x_ankle_1"] - a2[0]  # the paper's gate: the latch closes as the ankle passes
     heel_pt, toe_pt, _, _ = kin.free_foot(q, qd, p)
@@ -99,6 +101,8 @@ def guard_values(t: float, y: np.ndarray, p: Mapping[str, float], phase: int, ct
     if leg_2 in IN_AIR:
         heights, _ = clearance(q, qd, p, ctx)
         g[G["scuff"]] = np.min(heights) + p["scuff_tol"]
+    if heel_rise_variant(ctx) and phase in ON_TOE and float(jac_2[1] @ qd) < 0.0:
+        g[G["scuff"]] = a2[1] - ctx["y_toe_2"]  # a raised trailing foot's heel coming down to the ground
     g[G["slip"]] = min(cone(stance, p), cone(heel, p) if leg_2 == HEEL_PIVOT else 1.0)
     if p["stance_latch"] < 0.5:
         g[G["knee_buckle"]] = min(lam[KNEE_1], lam[KNEE_2] if leg_2 == HEEL_PIVOT else 1.0)
@@ -156,4 +160,6 @@ def active(phase: int, p: Mapping[str, float], ctx: dict) -> list[int]:
         names.append("knee_buckle")
     if heel_rise_variant(ctx) and phase in TWIN:
         names.append("heel_rise")
+    if heel_rise_variant(ctx) and phase in ON_TOE:
+        names.append("scuff")
     return [G[n] for n in names if n is not None]
