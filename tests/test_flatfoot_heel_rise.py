@@ -142,9 +142,17 @@ def test_on_its_toe_the_stance_foot_rises_holds_its_constraints_and_pushes(risin
 
 
 def test_the_step_maps_derivative_matches_central_differences_across_the_heel_rise(rising):
+    """At a start with the trailing foot raised 6e-4 leg lengths on its toe: the
+    guess itself (both feet flat) lies on the section's boundary ``y_ankle_2 = 0``,
+    below which a step ends ``SCUFFING`` at once, so differences across it are not
+    the map's."""
     params, v, _ = rising
     h = 1e-4  # the step is accurate to ~1e-10: differences of 1e-6 would be noise at 1e-4
     eye = jnp.eye(3)
+    v = v - 2e-3 * eye[1]  # the trailing leg tilted further back: its ankle off the ground
+    for start in [*(v + h * eye), *(v - h * eye)]:
+        y, _, ctx = MODEL.section_to_state(start, params)
+        assert float(geo.ankle(y[:6], params, 2)[1] - ctx[ph.C["y_toe_2"]]) > 1e-4
     for i in range(3):
         _, res, column = _step(v, eye[i], params)
         assert "heel_rise" in _names(res.ctx)
@@ -242,3 +250,23 @@ def test_a_raised_trailing_heel_coming_down_is_watched_in_push_off():
     lowering_ref = np.concatenate([y_ref[:6], -y_ref[6:]])
     assert guard_values(0.0, lowering_ref, p_ref, phase_ref, ctx_ref)[G["scuff"]] == pytest.approx(height, abs=1e-12)
     assert guard_values(0.0, y_ref, p_ref, phase_ref, ctx_ref)[G["scuff"]] == 1.0
+
+
+def test_a_start_with_the_trailing_heel_below_the_ground_scuffs_at_once():
+    """The section's formulas continue below ``y_ankle_2 = 0`` (so Newton can reach
+    the heel-down gaits on that boundary), but a step from there would start with
+    the trailing heel in the floor: ``scuff`` is active below the toe whichever way
+    the ankle moves, and the step ends ``SCUFFING`` at its start, in both
+    implementations. The same point with the foot flat (``psi_2 = -psi``) walks."""
+    from tests.reference import flatfoot as ref
+
+    params = MODEL.default_params()
+    sunk = jnp.asarray([0.3245, 0.0, -0.3734])  # ankle 2 about 0.05 leg lengths below the ground
+    y, phase, ctx = MODEL.section_to_state(sunk, params)
+    assert float(geo.ankle(y[:6], params, 2)[1] - ctx[ph.C["y_toe_2"]]) < -0.01
+    p_ref = ref.params(**{name: float(value) for name, value in params.items()})
+    for start, status in ((sunk, "scuffing"), (sunk.at[1].set(-sunk[0]), "ok")):
+        _, res, _ = _step(start, _no_tangent, params)
+        _, info = ref.step_map(np.asarray(start), p_ref, heel_rise=True)
+        assert Status(int(res.status)).name.lower() == status and info["status"] == status
+    assert float(_step(sunk, _no_tangent, params)[1].time) == 0.0

@@ -31,6 +31,10 @@ from jaxwalk.models.flatfoot import phases as ph
 #: swing foot's extremum guards, never logged, follow them.
 HEEL_RISE, HEEL_DROP = 14, 15
 NAMES = ("heel_rise", "heel_drop")
+#: Leg lengths below its toe at which the trailing ankle counts as sunk into the
+#: floor: the engine's default start margin (``SolverOptions.start_guard_margin``),
+#: so that a start below it ends at once and rounding at a flat foot does not.
+SUNK_TOL = 1e-9
 
 
 def _may_rise(phase):
@@ -87,15 +91,23 @@ def relax_trailing_spring(q, params, ctx):
 
 
 def trailing_heel_landing(q, qd, params, phase, ctx):
-    """The raised trailing foot's height to flat while it lowers its heel, in push-off
-    and shank release (1 elsewhere): ankle 2's height above its toe, gated on it falling.
+    """The raised trailing foot's height to flat, in push-off and shank release (1
+    elsewhere): ankle 2's height above its toe, while it falls or is below the toe.
 
     A foot pivoting toe-down on its toe has its heel above the ground; the heel
     lands when the ankle comes down to the toe's height, and the step ends
     ``SCUFFING`` there (a double flat stance is not modelled). The base walker's
     trailing foot starts flat and must rise at once (``events.trailing_heel_sinks``);
     this walker's may start raised.
+
+    Below the toe (by more than :data:`SUNK_TOL`) the guard is active whichever way
+    the ankle moves: a section point with the trailing heel in the floor (the
+    section's formulas continue there, docs/model.md) starts with this guard below
+    zero, and the engine ends such a step at its start, ``SCUFFING``. A flat
+    trailing foot, at zero height to rounding, keeps it inactive.
     """
     _, toe_2, _, _ = ph.anchors(params, ctx)
     height, rate = jax.jvp(lambda q_: geo.ankle(q_, params, 2)[1], (q,), (qd,))
-    return jnp.where(ph.ON_TOE[phase] & (rate < 0.0), height - toe_2[1], jnp.ones_like(height))
+    above_toe = height - toe_2[1]
+    watched = (rate < 0.0) | (above_toe < -SUNK_TOL)
+    return jnp.where(ph.ON_TOE[phase] & watched, above_toe, jnp.ones_like(height))
