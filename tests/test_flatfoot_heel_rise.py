@@ -26,6 +26,7 @@ from jaxwalk.models import get_model
 from jaxwalk.models.flatfoot import events as ev
 from jaxwalk.models.flatfoot import geometry as geo
 from jaxwalk.models.flatfoot import heel_rise as hr
+from jaxwalk.models.flatfoot.clearance import min_clearance
 from jaxwalk.models.flatfoot import phases as ph
 from jaxwalk.models.flatfoot.model import SHOE_PARAMS
 from jaxwalk.simulate import BEFORE_EVENT, record_walk
@@ -211,7 +212,8 @@ def test_the_step_matches_the_independent_scipy_walker(changes, start):
     """The SciPy reference written again from docs/model.md (tests/reference/flatfoot,
     ``heel_rise=True``): the same events in the same order, the next point to 1e-8
     (measured 8e-10 and 7e-10 where the heel rises in heel pivot and drops), the step's
-    time and its actuators' work (the springs' reset work included) to 1e-8."""
+    time, its actuators' work (the springs' reset work included) and its minimum swing
+clearance to 1e-8."""
     from tests.reference import flatfoot as ref
 
     p_ref = ref.params(**{**_SHOE, **changes})
@@ -223,6 +225,9 @@ def test_the_step_matches_the_independent_scipy_walker(changes, start):
     assert "heel_rise" in _names(res.ctx)
     np.testing.assert_allclose(np.asarray(v1), v1_ref, rtol=0.0, atol=1e-8)
     assert abs(float(res.time) - info["time"]) < 1e-8 and abs(float(res.work) - info["work"]) < 1e-8
+    clearance = float(min_clearance(res.ctx))
+    assert np.isnan(clearance) == np.isnan(info["min_clearance"])
+    assert np.isnan(clearance) or abs(clearance - info["min_clearance"]) < 1e-8
 
 
 

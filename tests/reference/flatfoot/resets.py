@@ -208,7 +208,9 @@ def on_event(name: str, t: float, y: np.ndarray, p: Mapping[str, float], phase: 
     if rows is not None:
         y_next, impulses = impact(y, p, ctx_new, rows)
         status = status or impulse_status(q, impulses, p, ctx_new)
-    if name == "knee_strike" and leg_2_phase(phase) in IN_AIR and leg_2_phase(next_phase) in IN_AIR:
+    # An impact with the swing foot in the air before and after (knee-strike; in the
+    # heel-rise variant also the stance heel's drop) may turn a falling point up.
+    if rows is not None and leg_2_phase(phase) in IN_AIR and leg_2_phase(next_phase) in IN_AIR:
         ctx_new["min_clearance"] = _turned_up(y, y_next, p, ctx_new, ctx_new["min_clearance"])
     done, shift = name == "toe_strike", 0.0
     if done:
