@@ -142,11 +142,17 @@ def test_on_its_toe_the_stance_foot_rises_holds_its_constraints_and_pushes(risin
         assert float(heel[1]) > 0.0
 
 
+def _walked(v, params):
+    """``v_next`` of a step from ``v`` that completes, heel rise and toe-strike included."""
+    v1, res, _ = _step(v, _no_tangent, params)
+    assert int(res.status) == Status.OK and _names(res.ctx)[-2:] == ["heel_rise", "toe_strike"]
+    return v1
+
+
 def test_the_step_maps_derivative_matches_central_differences_across_the_heel_rise(rising):
-    """At a start with the trailing foot raised 6e-4 leg lengths on its toe: the
-    guess itself (both feet flat) lies on the section's boundary ``y_ankle_2 = 0``,
-    below which a step ends ``SCUFFING`` at once, so differences across it are not
-    the map's."""
+    """At a start with the trailing foot raised 6e-4 leg lengths on its toe, so that
+    every difference stays inside the section (the guess itself, both feet flat,
+    lies on its boundary ``y_ankle_2 = 0``, below which a step ends ``SCUFFING``)."""
     params, v, _ = rising
     h = 1e-4  # the step is accurate to ~1e-10: differences of 1e-6 would be noise at 1e-4
     eye = jnp.eye(3)
@@ -156,10 +162,30 @@ def test_the_step_maps_derivative_matches_central_differences_across_the_heel_ri
         assert float(geo.ankle(y[:6], params, 2)[1] - ctx[ph.C["y_toe_2"]]) > 1e-4
     for i in range(3):
         _, res, column = _step(v, eye[i], params)
-        assert "heel_rise" in _names(res.ctx)
-        plus = _step(v + h * eye[i], _no_tangent, params)[0]
-        minus = _step(v - h * eye[i], _no_tangent, params)[0]
-        np.testing.assert_allclose(np.asarray(column), np.asarray((plus - minus) / (2 * h)), rtol=1e-5, atol=1e-6)
+        assert int(res.status) == Status.OK and "heel_rise" in _names(res.ctx)
+        difference = (_walked(v + h * eye[i], params) - _walked(v - h * eye[i], params)) / (2 * h)
+        np.testing.assert_allclose(np.asarray(column), np.asarray(difference), rtol=1e-5, atol=1e-6)
+
+
+def test_on_the_sections_boundary_the_derivative_is_the_one_from_inside(rising):
+    """At the guess (both feet flat: on the boundary, where every heel-down gait's
+    multipliers are computed) the forward derivative along ``psi`` with ``psi_2 + psi``
+    kept (the trailing foot stays flat) matches central differences, and along
+    ``psi_2`` the one-sided second-order difference from inside (lowering ``psi_2``
+    raises the trailing ankle); a step from just outside scuffs."""
+    params, v, _ = rising
+    h = 1e-4
+    along_flat, raise_ = jnp.array([1.0, -1.0, 0.0]), jnp.array([0.0, 1.0, 0.0])
+    _, res, column = _step(v, along_flat, params)
+    assert int(res.status) == Status.OK
+    difference = (_walked(v + h * along_flat, params) - _walked(v - h * along_flat, params)) / (2 * h)
+    np.testing.assert_allclose(np.asarray(column), np.asarray(difference), rtol=1e-5, atol=1e-6)
+    _, _, column = _step(v, raise_, params)
+    inside = [_walked(v - j * h * raise_, params) for j in range(3)]
+    one_sided = (3.0 * inside[0] - 4.0 * inside[1] + inside[2]) / (2 * h)
+    # The column is small (0.012-0.029); measured difference 7e-7 at most.
+    np.testing.assert_allclose(np.asarray(column), np.asarray(one_sided), rtol=1e-5, atol=1e-6)
+    assert int(_step(v + h * raise_, _no_tangent, params)[1].status) == Status.SCUFFING
 
 
 #: The stance spring alone relaxed at toe-strike (``trailing_reset = 0``), a
@@ -176,14 +202,14 @@ PUSH_K_GUESS = (0.22104, -0.24624, -0.24743)
 
 
 @pytest.mark.parametrize(
-    "changes, guess, raised",
-    [(STANCE_RESET, STANCE_RESET_GUESS, 0.0), (PUSH_K, PUSH_K_GUESS, 5e-3)],
+    "changes, guess, raised, lam_search",
+    [(STANCE_RESET, STANCE_RESET_GUESS, 0.0, 0.4815), (PUSH_K, PUSH_K_GUESS, 5e-3, 0.6800)],
     ids=["k_0.1", "k_0.26_less_push"],
 )
-def test_with_only_the_stance_spring_reset_a_stable_gait_ends_its_step_heel_up(changes, guess, raised):
+def test_with_only_the_stance_spring_reset_a_stable_gait_ends_its_step_heel_up(changes, guess, raised, lam_search):
     """Newton (on the step's forward tangent) from the documented guess: a fixed
     point whose step ends heel up with the new trailing ankle above ``raised``
-    leg lengths, stable (``lambda_max`` 0.48 and 0.68 by the sweeps' searches)."""
+    leg lengths, stable, with the sweeps' searches' ``lambda_max`` (``lam_search``)."""
     params = with_params(MODEL.default_params(), **changes)
     v, eye = jnp.asarray(guess), jnp.eye(3)
     for _ in range(6):
@@ -196,7 +222,7 @@ def test_with_only_the_stance_spring_reset_a_stable_gait_ends_its_step_heel_up(c
     assert int(res.status) == Status.OK and float(jnp.max(jnp.abs(residual))) < 1e-10
     jac = jnp.stack([_step(v, eye[i], params)[2] for i in range(3)], axis=1)
     lam = float(np.max(np.abs(np.linalg.eigvals(np.asarray(jac)))))
-    assert lam < 1.0, lam
+    assert abs(lam - lam_search) < 1e-3, lam  # the sweeps' Newton stops at its own 1e-8
     assert _names(res.ctx)[-2:] == ["heel_rise", "toe_strike"]
     # Heel up at toe-strike: the new trailing ankle starts above the ground.
     y0, _, _ = MODEL.section_to_state(v, params)
@@ -226,7 +252,7 @@ def test_the_step_matches_the_independent_scipy_walker(changes, start):
     ``heel_rise=True``): the same events in the same order, the next point to 1e-8
     (measured 8e-10 and 7e-10 where the heel rises in heel pivot and drops), the step's
     time, its actuators' work (the springs' reset work included) and its minimum swing
-clearance to 1e-8."""
+    clearance to 1e-8."""
     from tests.reference import flatfoot as ref
 
     p_ref = ref.params(**{**_SHOE, **changes})
@@ -274,17 +300,27 @@ def test_a_start_with_the_trailing_heel_below_the_ground_scuffs_at_once():
     """The section's formulas continue below ``y_ankle_2 = 0`` (so Newton can reach
     the heel-down gaits on that boundary), but a step from there would start with
     the trailing heel in the floor: ``scuff`` is active below the toe whichever way
-    the ankle moves, and the step ends ``SCUFFING`` at its start, in both
-    implementations. The same point with the foot flat (``psi_2 = -psi``) walks."""
+    the ankle moves, beyond ``SUNK_TOL`` (room for the flat foot's drift), and the
+    step ends ``SCUFFING`` at its start, in both implementations. The same point
+    with the foot flat (``psi_2 = -psi``) walks, and so does one half ``SUNK_TOL``
+    down; one twice ``SUNK_TOL`` down does not."""
     from tests.reference import flatfoot as ref
+    from tests.reference.flatfoot import guards as ref_guards
 
+    assert hr.SUNK_TOL == ref_guards.SUNK_TOL
     params = MODEL.default_params()
-    sunk = jnp.asarray([0.3245, 0.0, -0.3734])  # ankle 2 about 0.05 leg lengths below the ground
-    y, phase, ctx = MODEL.section_to_state(sunk, params)
-    assert float(geo.ankle(y[:6], params, 2)[1] - ctx[ph.C["y_toe_2"]]) < -0.01
     p_ref = ref.params(**{name: float(value) for name, value in params.items()})
-    for start, status in ((sunk, "scuffing"), (sunk.at[1].set(-sunk[0]), "ok")):
+    sunk = jnp.asarray([0.3245, 0.0, -0.3734])  # ankle 2 about 0.05 leg lengths below the ground
+    flat = sunk.at[1].set(-sunk[0])
+    depth = lambda v: -float(geo.ankle(MODEL.section_to_state(v, params)[0][:6], params, 2)[1])
+    assert depth(sunk) > 0.01 and abs(depth(flat)) < 1e-15
+    # psi_2 up by d sinks ankle 2 by about its rate times d: starts half and twice SUNK_TOL down.
+    rate = depth(flat.at[1].add(1e-4)) / 1e-4
+    near, beyond = flat.at[1].add(0.5 * hr.SUNK_TOL / rate), flat.at[1].add(2.0 * hr.SUNK_TOL / rate)
+    assert 0.4 * hr.SUNK_TOL < depth(near) < 0.6 * hr.SUNK_TOL < 1.9 * hr.SUNK_TOL < depth(beyond)
+    for start, status in ((sunk, "scuffing"), (beyond, "scuffing"), (flat, "ok"), (near, "ok")):
         _, res, _ = _step(start, _no_tangent, params)
         _, info = ref.step_map(np.asarray(start), p_ref, heel_rise=True)
         assert Status(int(res.status)).name.lower() == status and info["status"] == status
-    assert float(_step(sunk, _no_tangent, params)[1].time) == 0.0
+        if status == "scuffing":
+            assert float(res.time) == 0.0 and info["time"] == 0.0

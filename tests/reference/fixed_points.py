@@ -42,7 +42,7 @@ def _jacobian(step_fn: Callable, v: np.ndarray, fd_step: float, args: tuple):
 
 def fixed_point(step_fn: Callable, v0, args: tuple = (), tol: float = 1e-12, max_iter: int = 30,
                 fd_step: float = 1e-6, final_fd_step: float = 2e-5,
-                richardson: bool = True, max_halvings: int = 10) -> FixedPointResult:
+                richardson: bool = True, max_halvings: int = 10, jacobian: Callable | None = None) -> FixedPointResult:
     """Period-one fixed point of a step map by Newton-Raphson (central-difference Jacobian).
 
     Args:
@@ -60,6 +60,10 @@ def fixed_point(step_fn: Callable, v0, args: tuple = (), tol: float = 1e-12, max
             central differences, error O(h^4) instead of O(h^2): ~1e-10 on the
             eigenvalues instead of ~1e-8); with ``richardson=False`` it is the plain
             central difference ``J(fd_step)``.
+        jacobian: ``jacobian(step_fn, v, h, args) -> (J, None)``, or ``(None, info)`` of
+            a failed step, in place of central differences on each coordinate (a
+            section with a boundary needs differences that stay inside it); its
+            error must be O(h^2) for the Richardson step.
 
     Returns:
         :class:`FixedPointResult`: ``v`` (shape ``(n,)``), ``J`` (``(n, n)``,
@@ -69,6 +73,7 @@ def fixed_point(step_fn: Callable, v0, args: tuple = (), tol: float = 1e-12, max
     """
     v = np.array(v0, dtype=float)
     n = v.size
+    _jacobian_at = _jacobian if jacobian is None else jacobian
     nan_out = (np.full(n, math.nan), np.full((n, n), math.nan), np.full(n, math.nan + 0j), math.nan)
 
     def failed(status, it, res, info):
@@ -85,12 +90,12 @@ def fixed_point(step_fn: Callable, v0, args: tuple = (), tol: float = 1e-12, max
         res = float(np.max(np.abs(r)))
         converged = res < tol or last_dv < tol / 10
         if converged and richardson:
-            J, bad = _jacobian(step_fn, v, final_fd_step, args)
+            J, bad = _jacobian_at(step_fn, v, final_fd_step, args)
             if J is not None:
-                J2, bad = _jacobian(step_fn, v, 2.0 * final_fd_step, args)
+                J2, bad = _jacobian_at(step_fn, v, 2.0 * final_fd_step, args)
                 J = None if J2 is None else (4.0 * J - J2) / 3.0
         else:
-            J, bad = _jacobian(step_fn, v, fd_step, args)
+            J, bad = _jacobian_at(step_fn, v, fd_step, args)
         if J is None:
             return failed(bad["status"], it, res, bad)
         if converged:

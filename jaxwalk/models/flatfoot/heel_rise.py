@@ -32,9 +32,12 @@ from jaxwalk.models.flatfoot import phases as ph
 HEEL_RISE, HEEL_DROP = 14, 15
 NAMES = ("heel_rise", "heel_drop")
 #: Leg lengths below its toe at which the trailing ankle counts as sunk into the
-#: floor: the engine's default start margin (``SolverOptions.start_guard_margin``),
-#: so that a start below it ends at once and rounding at a flat foot does not.
-SUNK_TOL = 1e-9
+#: floor. A flat trailing foot's ankle is the last step's stance ankle, held at the
+#: ground only as closely as the integrator keeps its pin (2.2e-10 off at the shoe
+#: gait, SciPy reference), and push-off's guards are checked on entry at
+#: toe-strike with no margin; 1e-6 leaves that drift four orders of room and
+#: counts a micrometre-deep start as flat.
+SUNK_TOL = 1e-6
 
 
 def _may_rise(phase):
@@ -91,8 +94,9 @@ def relax_trailing_spring(q, params, ctx):
 
 
 def trailing_heel_landing(q, qd, params, phase, ctx):
-    """The raised trailing foot's height to flat, in push-off and shank release (1
-    elsewhere): ankle 2's height above its toe, while it falls or is below the toe.
+    """The raised trailing foot's height to flat (leg lengths), in push-off and shank
+    release (1 elsewhere): ankle 2's height above its toe, while it falls or is below
+    the toe.
 
     A foot pivoting toe-down on its toe has its heel above the ground; the heel
     lands when the ankle comes down to the toe's height, and the step ends
@@ -103,8 +107,10 @@ def trailing_heel_landing(q, qd, params, phase, ctx):
     Below the toe (by more than :data:`SUNK_TOL`) the guard is active whichever way
     the ankle moves: a section point with the trailing heel in the floor (the
     section's formulas continue there, docs/model.md) starts with this guard below
-    zero, and the engine ends such a step at its start, ``SCUFFING``. A flat
-    trailing foot, at zero height to rounding, keeps it inactive.
+    zero, and the engine ends such a step at its start, ``SCUFFING`` (unless a
+    failure earlier in the model's order is due there too, or the trailing toe
+    lifts at once, leaving push-off). A flat trailing foot, at zero height to the
+    integrator's drift, keeps it inactive.
     """
     _, toe_2, _, _ = ph.anchors(params, ctx)
     height, rate = jax.jvp(lambda q_: geo.ankle(q_, params, 2)[1], (q,), (qd,))

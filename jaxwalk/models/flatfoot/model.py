@@ -331,7 +331,8 @@ class FlatFootHeelRiseWalker(FlatFootWalker):
 
         The trailing toe is on the ground ahead of ankle 2 at the foot's toe arm;
         where ankle 2 is below the ground (not a state of the walker, but a point
-        Newton may try) the same formulas continue smoothly.
+        Newton may try) the same formulas continue smoothly, and a step from there
+        ends ``SCUFFING`` at its start (:func:`heel_rise.trailing_heel_landing`).
         """
         psi, psi_2, psi_dot = v[0], v[1], v[2]
         length, delta = geo.chord(params)

@@ -14,8 +14,8 @@ in their heel-up twins); there ``foot_roll`` keeps only its heel side in the fla
 twins' phases and is 1 in the heel-up ones, and ``running`` and ``slip`` read the
 toe's force, and in push-off and shank release ``scuff`` watches the raised
 trailing foot's heel coming down (ankle 2 to its toe's height, gated on it
-falling or already more than ``SUNK_TOL`` below, so that a section point with
-the trailing heel in the floor ends its step at the start). Every guard of leg 2 in a twin is its flat phase's.
+falling or already more than ``SUNK_TOL`` below, so that a section point
+with the trailing heel in the floor ends its step at the start). Every guard of leg 2 in a twin is its flat phase's.
 """
 
 from __future__ import annotations
@@ -41,9 +41,9 @@ FAILURES = (("fall", "fell"), ("leg_range", "fell"), ("stall", "stalled"), ("run
             ("scuff", "scuffing"), ("slip", "slipping"), ("knee_buckle", "knee_buckled"),
             ("foot_roll", "foot_rolling"))  # fmt: skip
 #: Leg lengths below its toe at which the trailing ankle counts as sunk into the
-#: floor (``scuff`` active whichever way it moves): the start margin of
-#: :mod:`tests.reference.flatfoot.step`, so rounding at a flat foot does not count.
-SUNK_TOL = 1e-9
+#: floor (``scuff`` active whichever way it moves): room for the drift of a flat
+#: trailing foot's ankle, the last stance ankle's pin (2.2e-10 at the shoe gait).
+SUNK_TOL = 1e-6
 #: Phases in which the swing knee rests on its extension stop (and may be released).
 ON_STOP = (PUSH_OFF, LOCKED_SWING)
 
@@ -107,8 +107,9 @@ def guard_values(t: float, y: np.ndarray, p: Mapping[str, float], phase: int, ct
         heights, _ = clearance(q, qd, p, ctx)
         g[G["scuff"]] = np.min(heights) + p["scuff_tol"]
     # A raised trailing foot's heel coming down to the ground, or a start with it already below.
-    if heel_rise_variant(ctx) and phase in ON_TOE and (float(jac_2[1] @ qd) < 0.0 or a2[1] - ctx["y_toe_2"] < -SUNK_TOL):
-        g[G["scuff"]] = a2[1] - ctx["y_toe_2"]
+    above_toe = a2[1] - ctx["y_toe_2"]
+    if heel_rise_variant(ctx) and phase in ON_TOE and (float(jac_2[1] @ qd) < 0.0 or above_toe < -SUNK_TOL):
+        g[G["scuff"]] = above_toe
     g[G["slip"]] = min(cone(stance, p), cone(heel, p) if leg_2 == HEEL_PIVOT else 1.0)
     if p["stance_latch"] < 0.5:
         g[G["knee_buckle"]] = min(lam[KNEE_1], lam[KNEE_2] if leg_2 == HEEL_PIVOT else 1.0)
