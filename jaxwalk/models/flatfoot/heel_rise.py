@@ -33,10 +33,10 @@ HEEL_RISE, HEEL_DROP = 14, 15
 NAMES = ("heel_rise", "heel_drop")
 #: Leg lengths below its toe at which the trailing ankle counts as sunk into the
 #: floor. A flat trailing foot's ankle is the last step's stance ankle, held at the
-#: ground only as closely as the integrator keeps its pin (2.2e-10 off at the shoe
-#: gait, SciPy reference), and push-off's guards are checked on entry at
-#: toe-strike with no margin; 1e-6 leaves that drift four orders of room and
-#: counts a micrometre-deep start as flat.
+#: ground only as closely as the integrator keeps its pin (8.2e-11 below it at the
+#: shoe gait's toe-strike; 2.2e-10 above in the SciPy reference), and push-off's
+#: guards are checked on entry at toe-strike with no margin; 1e-6 leaves that drift
+#: four orders of room and counts a micrometre-deep start as flat.
 SUNK_TOL = 1e-6
 
 

@@ -42,7 +42,8 @@ FAILURES = (("fall", "fell"), ("leg_range", "fell"), ("stall", "stalled"), ("run
             ("foot_roll", "foot_rolling"))  # fmt: skip
 #: Leg lengths below its toe at which the trailing ankle counts as sunk into the
 #: floor (``scuff`` active whichever way it moves): room for the drift of a flat
-#: trailing foot's ankle, the last stance ankle's pin (2.2e-10 at the shoe gait).
+#: trailing foot's ankle, the last stance ankle's pin (2.2e-10 at the shoe gait's
+#: toe-strike; jaxwalk's 8.2e-11 below).
 SUNK_TOL = 1e-6
 #: Phases in which the swing knee rests on its extension stop (and may be released).
 ON_STOP = (PUSH_OFF, LOCKED_SWING)
