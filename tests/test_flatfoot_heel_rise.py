@@ -164,6 +164,7 @@ def test_the_step_maps_derivative_matches_central_differences_across_the_heel_ri
         _, res, column = _step(v, eye[i], params)
         assert int(res.status) == Status.OK and "heel_rise" in _names(res.ctx)
         difference = (_walked(v + h * eye[i], params) - _walked(v - h * eye[i], params)) / (2 * h)
+        # Measured: at most 4.4e-6, on the psi column (entries 2.5-3.3; 1.4e-5 at h = 2e-4: truncation).
         np.testing.assert_allclose(np.asarray(column), np.asarray(difference), rtol=1e-5, atol=1e-6)
 
 
@@ -183,8 +184,9 @@ def test_on_the_sections_boundary_the_derivative_is_the_one_from_inside(rising):
     _, _, column = _step(v, raise_, params)
     inside = [_walked(v - j * h * raise_, params) for j in range(3)]
     one_sided = (3.0 * inside[0] - 4.0 * inside[1] + inside[2]) / (2 * h)
-    # The column is small (0.012-0.029); measured difference 7e-7 at most.
-    np.testing.assert_allclose(np.asarray(column), np.asarray(one_sided), rtol=1e-5, atol=1e-6)
+    # The column is small (0.012-0.029); the difference is 6.9e-7 at h = 1e-4 and 1.2e-6
+    # at 2e-4 (the steps' noise and the truncation of the same order): 3x the measured.
+    np.testing.assert_allclose(np.asarray(column), np.asarray(one_sided), rtol=1e-5, atol=2e-6)
     assert int(_step(v + h * raise_, _no_tangent, params)[1].status) == Status.SCUFFING
 
 
@@ -203,7 +205,7 @@ PUSH_K_GUESS = (0.22104, -0.24624, -0.24743)
 
 @pytest.mark.parametrize(
     "changes, guess, raised, lam_search",
-    [(STANCE_RESET, STANCE_RESET_GUESS, 0.0, 0.4815), (PUSH_K, PUSH_K_GUESS, 5e-3, 0.6800)],
+    [(STANCE_RESET, STANCE_RESET_GUESS, 0.0, 0.48145766), (PUSH_K, PUSH_K_GUESS, 5e-3, 0.68004128)],
     ids=["k_0.1", "k_0.26_less_push"],
 )
 def test_with_only_the_stance_spring_reset_a_stable_gait_ends_its_step_heel_up(changes, guess, raised, lam_search):
@@ -222,7 +224,8 @@ def test_with_only_the_stance_spring_reset_a_stable_gait_ends_its_step_heel_up(c
     assert int(res.status) == Status.OK and float(jnp.max(jnp.abs(residual))) < 1e-10
     jac = jnp.stack([_step(v, eye[i], params)[2] for i in range(3)], axis=1)
     lam = float(np.max(np.abs(np.linalg.eigvals(np.asarray(jac)))))
-    assert abs(lam - lam_search) < 1e-3, lam  # the sweeps' Newton stops at its own 1e-8
+    # The sweeps' searches (Newton to 1e-8) and this one differ by 1.1e-8 and 3e-9.
+    assert abs(lam - lam_search) < 1e-6, lam
     assert _names(res.ctx)[-2:] == ["heel_rise", "toe_strike"]
     # Heel up at toe-strike: the new trailing ankle starts above the ground.
     y0, _, _ = MODEL.section_to_state(v, params)
@@ -317,7 +320,7 @@ def test_a_start_with_the_trailing_heel_below_the_ground_scuffs_at_once():
     # psi_2 up by d sinks ankle 2 by about its rate times d: starts half and twice SUNK_TOL down.
     rate = depth(flat.at[1].add(1e-4)) / 1e-4
     near, beyond = flat.at[1].add(0.5 * hr.SUNK_TOL / rate), flat.at[1].add(2.0 * hr.SUNK_TOL / rate)
-    assert 0.4 * hr.SUNK_TOL < depth(near) < 0.6 * hr.SUNK_TOL < 1.9 * hr.SUNK_TOL < depth(beyond)
+    assert 0.4 < depth(near) / hr.SUNK_TOL < 0.6 and 1.9 < depth(beyond) / hr.SUNK_TOL < 2.1
     for start, status in ((sunk, "scuffing"), (beyond, "scuffing"), (flat, "ok"), (near, "ok")):
         _, res, _ = _step(start, _no_tangent, params)
         _, info = ref.step_map(np.asarray(start), p_ref, heel_rise=True)

@@ -197,3 +197,30 @@ def test_base_toe_1_impulse_is_zero_on_a_flat_foot():
     a1, _ = kin.ankle(y_ev[:N_Q], p, 1)
     normal = imp[con.TOE_1] * (a1 - con.anchors(p, ctx)["toe_1"])[1] / foot_arms(p)[1]
     assert abs(imp[con.TOE_1]) > 1e-4 and abs(normal) < 1e-9 * np.max(np.abs(imp))
+
+
+def test_section_jacobian_stays_inside_the_section_and_is_exact_for_a_cubic_map():
+    """The reference's Newton on the variant differences inside its section
+    (``newton.section_jacobian``). On a cubic stand-in map that fails outside the
+    section (``psi_2 + psi > 0``, as a step from there scuffs), at a point on the
+    boundary: no difference steps out, the plain differences are off by O(h^2), and
+    the Richardson step of ``fixed_point`` (the same formulas at h and 2h) is exact,
+    as it must be where the fourth derivatives vanish."""
+    from tests.reference.fixed_points import _extrapolated
+    from tests.reference.flatfoot.newton import section_jacobian
+
+    a = np.array([[0.3, -0.2, 0.5], [0.1, 0.4, -0.3], [-0.6, 0.2, 0.7]])
+    c = np.array([2.0, -1.5, 3.0])
+
+    def step(v):
+        if v[0] + v[1] > 1e-12:
+            return np.full(3, np.nan), {"status": "scuffing"}
+        return a @ v + c * v**3 + 0.5 * np.roll(v, 1) ** 3, {"status": "ok"}
+
+    v = np.array([0.3, -0.3, -0.37])
+    exact = a + np.diag(3.0 * c * v**2) + np.roll(np.diag(1.5 * v**2), 1, axis=0)
+    h = 1e-2
+    plain, bad = section_jacobian(step, v, h)
+    assert bad is None and 1e-6 < np.max(np.abs(plain - exact)) < 1e-3
+    extrapolated, bad = _extrapolated(section_jacobian, step, v, h, (), True)
+    assert bad is None and np.max(np.abs(extrapolated - exact)) < 1e-12

@@ -40,6 +40,15 @@ def _jacobian(step_fn: Callable, v: np.ndarray, fd_step: float, args: tuple):
     return J, None
 
 
+def _extrapolated(jacobian: Callable, step_fn: Callable, v, h: float, args: tuple, richardson: bool):
+    """``jacobian`` at step ``h``, Richardson-extrapolated from ``h`` and ``2h`` if asked: ``(J, bad)``."""
+    J, bad = jacobian(step_fn, v, h, args)
+    if J is None or not richardson:
+        return J, bad
+    J2, bad = jacobian(step_fn, v, 2.0 * h, args)
+    return (None, bad) if J2 is None else ((4.0 * J - J2) / 3.0, None)
+
+
 def fixed_point(step_fn: Callable, v0, args: tuple = (), tol: float = 1e-12, max_iter: int = 30,
                 fd_step: float = 1e-6, final_fd_step: float = 2e-5,
                 richardson: bool = True, max_halvings: int = 10, jacobian: Callable | None = None) -> FixedPointResult:
@@ -62,8 +71,10 @@ def fixed_point(step_fn: Callable, v0, args: tuple = (), tol: float = 1e-12, max
             central difference ``J(fd_step)``.
         jacobian: ``jacobian(step_fn, v, h, args) -> (J, None)``, or ``(None, info)`` of
             a failed step, in place of central differences on each coordinate (a
-            section with a boundary needs differences that stay inside it); its
-            error must be O(h^2) for the Richardson step.
+            section with a boundary needs differences that stay inside it). It must
+            use the same formulas at ``h`` and ``2h``, each with a leading error
+            ``c h^2``, so that the Richardson step cancels it (O(h^4) for central
+            differences, O(h^3) for one-sided second-order ones).
 
     Returns:
         :class:`FixedPointResult`: ``v`` (shape ``(n,)``), ``J`` (``(n, n)``,
@@ -89,13 +100,8 @@ def fixed_point(step_fn: Callable, v0, args: tuple = (), tol: float = 1e-12, max
         r = pv - v
         res = float(np.max(np.abs(r)))
         converged = res < tol or last_dv < tol / 10
-        if converged and richardson:
-            J, bad = _jacobian_at(step_fn, v, final_fd_step, args)
-            if J is not None:
-                J2, bad = _jacobian_at(step_fn, v, 2.0 * final_fd_step, args)
-                J = None if J2 is None else (4.0 * J - J2) / 3.0
-        else:
-            J, bad = _jacobian_at(step_fn, v, fd_step, args)
+        h = final_fd_step if converged and richardson else fd_step
+        J, bad = _extrapolated(_jacobian_at, step_fn, v, h, args, converged and richardson)
         if J is None:
             return failed(bad["status"], it, res, bad)
         if converged:

@@ -1,5 +1,7 @@
 """The flat-foot walker's period-one gait by Newton-Raphson on a central-difference
-Jacobian of the SciPy step map (the seed paper's method), and its multipliers.
+Jacobian of the SciPy step map (the seed paper's method), and its multipliers
+(the heel-rise variant's Jacobian by differences inside its section:
+:func:`section_jacobian`).
 
 Part of :mod:`tests.reference.flatfoot`; the Newton iteration is the reference's
 own (:func:`tests.reference.fixed_points.fixed_point`, shared with the simplest
@@ -34,7 +36,8 @@ def gait(p: Mapping[str, float] | None = None, v0=PAPER_GUESS, rtol: float = RTO
     """Fixed point ``v* = (psi, psi_dot)``, Jacobian ``dP/dv`` ``(2, 2)``, its eigenvalues
     and ``lambda_max`` at parameters ``p`` (the paper walker's, :data:`PAPER`, if ``None``).
     With ``heel_rise`` the heel-rise variant's: ``v* = (psi, psi_2, psi_dot)``, ``(3, 3)``;
-    a 2-D ``v0`` there is read as a base section point (``psi_2 = -psi``).
+    a 2-D ``v0`` there is read as a base section point (``psi_2 = -psi``), and the
+    Jacobian is taken inside the section (:func:`section_jacobian`).
 
     The result's ``status`` is ``"ok"`` or a failure name; ``step_info`` is the
     step at ``v*`` (:func:`tests.reference.flatfoot.step.run_step`'s dict: its
@@ -62,17 +65,19 @@ def section_jacobian(step_fn, v, h, args=()):
     them ends ``scuffing`` at once (docs/model.md, "The heel-rise walker"), so at a
     heel-down gait, which lies on that boundary, a central difference in ``psi`` or
     ``psi_2`` would step out of the section. Along ``SECTION_DIRECTIONS`` the first
-    difference keeps ``psi_2 + psi`` and the third does not touch it; the second,
-    within ``2h`` of the boundary, is one-sided into the section, second order:
-    ``(3 P(v) - 4 P(v - h e) + P(v - 2h e)) / 2h``. ``(J, None)``, or ``(None,
-    info)`` of a failed step. Measured at the shoe gait (2026-12-07): Newton from
+    difference keeps ``psi_2 + psi`` and the third does not touch it; the second
+    is one-sided into the section, second order, ``(3 P(v) - 4 P(v - h e) +
+    P(v - 2h e)) / 2h``, wherever ``v`` is (the same formula at every ``h``, so the
+    Richardson step of :func:`~tests.reference.fixed_points.fixed_point` cancels
+    its ``h^2`` term and leaves O(h^3) on that column). ``(J, None)``, or
+    ``(None, info)`` of a failed step. Measured at the shoe gait (2026-12-07): Newton from
     its 2-D point converges to it (to 4.7e-11, ``psi_2 + psi`` -6.9e-10) with the
     base walker's multipliers (-0.553647, 0.275931) and a third of 1e-7.
     """
     columns = []
     for j in range(3):
         e = SECTION_DIRECTIONS[:, j]
-        if j == 1 and v[0] + v[1] > -2.0 * h:
+        if j == 1:
             points, weights = (v, v - h * e, v - 2.0 * h * e), (1.5 / h, -2.0 / h, 0.5 / h)
         else:
             points, weights = (v + h * e, v - h * e), (0.5 / h, -0.5 / h)
