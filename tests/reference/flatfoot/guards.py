@@ -15,7 +15,8 @@ twins' phases and is 1 in the heel-up ones, and ``running`` and ``slip`` read th
 toe's force, and in push-off and shank release ``scuff`` watches the raised
 trailing foot's heel coming down (ankle 2 to its toe's height, gated on it
 falling or already more than ``SUNK_TOL`` below, so that a section point
-with the trailing heel in the floor ends its step at the start). Every guard of leg 2 in a twin is its flat phase's.
+with the trailing heel in the floor ends its step at the start). Every guard
+of leg 2 in a twin is its flat phase's.
 """
 
 from __future__ import annotations
