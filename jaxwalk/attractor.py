@@ -35,7 +35,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Complex, Float, Int8, Int32
 
-from jaxwalk import compiling, mechanics, program_cache
+from jaxwalk import compiling, event_log, mechanics, program_cache
 from jaxwalk.gait import Gait, GaitStats, NewtonOptions, value_and_jacfwd
 from jaxwalk.status import Status
 from jaxwalk.step import SolverOptions, step_map
@@ -219,6 +219,8 @@ class _CycleSolve(NamedTuple):
     converged: Array  # bool: the last update fell below the tolerance
     jac: Array  # (n_v, n_v) d f^k / dv at the last iterate whose steps did not fail
     points: Array  # (max_period, n_v) the cycle's points there (cycle_map's)
+    logged: Array  # (max_period,) int64 sequence code of each step of the current evaluation (jaxwalk.event_log)
+    sequences: Array  # (max_period,) int64 those of the steps from ``points`` (event_log.NONE past k)
     v_prev: Array  # (n_v,) the iterate an update is halved back towards
     last: Array  # (n_v,) the last update
     halvings: Array  # int32, halvings of the current update
@@ -232,7 +234,9 @@ def _fresh_solve(k: Array, v: Array, max_period: int) -> dict:
     return dict(k=k, x=v, dx=jnp.eye(n_v, dtype=v.dtype), j=jnp.zeros((), jnp.int32),
                 walked=jnp.broadcast_to(v, (max_period, n_v)), step_status=jnp.int8(Status.OK), v=v,
                 it=jnp.zeros((), jnp.int32), status=jnp.int8(Status.IN_PROGRESS), converged=jnp.asarray(False),
-                jac=jnp.full((n_v, n_v), nan), points=jnp.full((max_period, n_v), nan), v_prev=v,
+                jac=jnp.full((n_v, n_v), nan), points=jnp.full((max_period, n_v), nan),
+                logged=jnp.full(max_period, event_log.NONE, jnp.int64), sequences=jnp.full(max_period, event_log.NONE, jnp.int64),
+                v_prev=v,
                 last=jnp.zeros_like(v), halvings=jnp.zeros((), jnp.int32), trips=jnp.zeros((), jnp.int32))
 
 
@@ -265,6 +269,7 @@ def _newton_trip(c: _CycleSolve, newton: NewtonOptions) -> _CycleSolve:
     return c._replace(
         v=v, it=it, status=status, converged=c.converged | (~failed & (size < newton.tol)),
         jac=jnp.where(failed, c.jac, jac_r + eye), points=jnp.where(failed, c.points, points),
+        sequences=jnp.where(failed, c.sequences, jnp.where(rows[:, 0] < c.j, c.logged, event_log.NONE)),
         v_prev=jnp.where(failed, c.v_prev, c.v), last=jnp.where(retry, half, update),
         halvings=jnp.where(retry, c.halvings + 1, 0), trips=trips)
 
@@ -275,7 +280,7 @@ def _solve_cycle(model: Walker, params, v0: Array, k: Array, max_period: int, so
 
     With ``restart``, a converged cycle whose minimal period (:func:`minimal_period`)
     is shorter than k is solved again, from its first point, at that period.
-    Returns ``(v, k, jacobian, points, status)``.
+    Returns ``(v, k, jacobian, points, status, sequences)``.
     """
     running = jnp.int8(Status.IN_PROGRESS)
     rows = jnp.arange(max_period)[:, None]
@@ -301,11 +306,12 @@ def _solve_cycle(model: Walker, params, v0: Array, k: Array, max_period: int, so
         stepping = (c.status == running) & (c.j < c.k)
         x_next, jac_step, res = value_and_jacfwd(lambda x: step_map(model, x, params, solver), c.x)
         stepped = c._replace(x=x_next, dx=jac_step @ c.dx, j=c.j + 1, step_status=res.status.astype(jnp.int8),
-                             walked=jnp.where(rows == c.j, c.x, c.walked))
+                             walked=jnp.where(rows == c.j, c.x, c.walked),
+                             logged=jnp.where(rows[:, 0] == c.j, event_log.sequence_code(model, res.ctx), c.logged))
         return jax.tree_util.tree_map(lambda a, b: jnp.where(stepping, a, b), stepped, c)
 
     c = jax.lax.while_loop(lambda c: c.status == running, body, _CycleSolve(**_fresh_solve(k, v0, max_period)))
-    return c.v, c.k, c.jac, c.points, c.status
+    return c.v, c.k, c.jac, c.points, c.status, c.sequences
 
 
 def find_cycle(model: Walker, params, v0: Array, k: Array, max_period: int,
@@ -319,12 +325,14 @@ def find_cycle(model: Walker, params, v0: Array, k: Array, max_period: int,
     point. An update whose steps fail is halved (up to :data:`MAX_HALVINGS`
     times) instead of ending the search.
 
-    Returns ``(v, jacobian, points, status)``: the fixed point ``(n_v,)``,
+    Returns ``(v, jacobian, points, status, sequences)``: the fixed point ``(n_v,)``,
     ``d f^k/dv`` there ``(n_v, n_v)``, the cycle's points ``(max_period, n_v)``
-    (:func:`cycle_map`), and ``OK``, a failing step's status or ``NO_CONVERGENCE``.
+    (:func:`cycle_map`), ``OK``, a failing step's status or ``NO_CONVERGENCE``,
+    and the sequence codes of the cycle's k steps ``(max_period,)`` int64
+    (:mod:`jaxwalk.event_log`; ``NONE`` past k and for models that log no events).
     """
-    v, _, jac, points, status = _solve_cycle(model, params, v0, k, max_period, solver, newton, None)
-    return v, jac, points, status
+    v, _, jac, points, status, sequences = _solve_cycle(model, params, v0, k, max_period, solver, newton, None)
+    return v, jac, points, status, sequences
 
 
 def polish_cycle(model: Walker, params, v0: Array, k: Array, options: AttractorOptions,
@@ -336,7 +344,7 @@ def polish_cycle(model: Walker, params, v0: Array, k: Array, options: AttractorO
 
     Both solves are trips of one flat loop (:func:`_solve_cycle`), so the step is traced once.
     """
-    _, k, jac, points, status = _solve_cycle(model, params, v0, k, options.max_period, solver, newton, options)
+    _, k, jac, points, status, _ = _solve_cycle(model, params, v0, k, options.max_period, solver, newton, options)
     return k, jac, points, status
 
 

@@ -20,6 +20,14 @@ when the failure beyond it is a step's (a guard reached: scuffing, a fall,
 ``fold_window`` of +1 at the edge (the gait turns back: a natural-parameter
 line cannot follow it), and **lost** otherwise.
 
+Where neighbouring gaits' steps take different event sequences (models that
+log their events: :mod:`jaxwalk.event_log`), the map is piecewise smooth and
+its multipliers may jump: that point is located as a **border collision**
+(:mod:`jaxwalk.border_collision`), and the test functions' sign changes are
+sought only between gaits of one sequence; a sign that changes across the
+collision is reported with it (``jumps``), not as a fold, flip or
+Neimark-Sacker point.
+
 Each test-function bracket (two neighbouring grid points with opposite signs)
 is shrunk by the Illinois variant of regula falsi, one Newton re-solve of the
 cycle per trial parameter (started from the bracket's ends interpolated), all
@@ -43,6 +51,8 @@ from jaxtyping import Array, Complex, Float, Int, Int8
 from jaxwalk import compiling
 from jaxwalk.attractor import AttractorOptions, find_cycle, minimal_period, spectrum
 from jaxwalk.batching import Rows, over_rows, run_chunks, sub_batch_size
+from jaxwalk.bifurcation_edges import shrink_edges
+from jaxwalk.border_collision import jumps, shrink_collisions
 from jaxwalk.gait import NewtonOptions
 from jaxwalk.status import Status
 from jaxwalk.step import SolverOptions
@@ -58,6 +68,7 @@ class Kind(enum.IntEnum):
     GRAZING = 4
     LOST = 5
     BRANCH_POINT = 6
+    BORDER_COLLISION = 7
 
 
 KIND_MEANINGS = {
@@ -67,6 +78,8 @@ KIND_MEANINGS = {
     Kind.GRAZING: "grazing: the gait is lost where a step starts to fail (a guard reaches zero: scuffing, a fall, ...)",
     Kind.LOST: "the gait is lost (Newton fails beyond) with no multiplier near +1 and no failing step",
     Kind.BRANCH_POINT: "branch point: a real multiplier through +1 where the branch does not turn (branches cross)",
+    Kind.BORDER_COLLISION: ("border collision: the gait goes on but its step's event sequence changes (checked: the "
+                            "logged sequences differ on the two sides); the multipliers may jump there"),
 }
 
 
@@ -94,10 +107,18 @@ class Bifurcations(NamedTuple):
         line: index of the line (row of the lines given).
         period: k of the map whose multipliers cross (1: the period-1 gait).
         status: int8 ``OK``, or why the location failed (its bracket is then the row's ``parameter``
-            midpoint, not to ``tol``).
-        v: ``(n_v,)`` the cycle's point at the located parameter (on the gait's side for edges).
+            midpoint, not to ``tol``): ``NO_CONVERGENCE`` also where a sign change's
+            bracket met a third event sequence inside (two collisions between grid points).
+        v: ``(n_v,)`` the cycle's point at the located parameter (on the gait's side for
+            edges, on the lower parameter's side for border collisions).
         multipliers: ``(n_v,)`` complex, there.
         beyond: int8 status of the failure beyond an edge (``OK`` for sign changes).
+        sequence: int64 sequence code of the cycle's first step there (:mod:`jaxwalk.event_log`;
+            0 where the model logs none).
+        sequence_beyond: int64, a border collision's sequence on its higher parameter's side (0 for the others).
+        multipliers_beyond: ``(n_v,)`` complex, a border collision's multipliers there (NaN for the others).
+        jumps: int8 bit mask of the test functions whose sign changes across a border
+            collision (fold 1, flip 2, Neimark-Sacker 4; 0 for the others).
     """
 
     kind: Int8[np.ndarray, "rows"]
@@ -108,6 +129,10 @@ class Bifurcations(NamedTuple):
     v: Float[np.ndarray, "rows n_v"]
     multipliers: Complex[np.ndarray, "rows n_v"]
     beyond: Int8[np.ndarray, "rows"]
+    sequence: Int[np.ndarray, "rows"]
+    sequence_beyond: Int[np.ndarray, "rows"]
+    multipliers_beyond: Complex[np.ndarray, "rows n_v"]
+    jumps: Int8[np.ndarray, "rows"]
 
 
 def indicators(mu: np.ndarray) -> np.ndarray:
@@ -140,27 +165,29 @@ class CycleGuess(NamedTuple):
 @functools.lru_cache(maxsize=None)
 def _solver(model: Walker, k: int, solver: SolverOptions, newton: NewtonOptions):
     """Batched Newton re-solve of the period-k cycle: :class:`~jaxwalk.batching.Rows`
-    (parameters, inputs :class:`CycleGuess`) -> ``(status, v, multipliers)``."""
+    (parameters, inputs :class:`CycleGuess`) -> ``(status, v, multipliers, sequences)``
+    (``sequences``: ``(k,)`` int64, the sequence codes of the cycle's steps)."""
 
     k_ = jnp.asarray(k, jnp.int32)
 
     def one(p, guess: CycleGuess):
         v0 = guess.v0
-        _, jac, points, status = find_cycle(model, p, v0, k_, k, solver, newton)
+        _, jac, points, status, sequences = find_cycle(model, p, v0, k_, k, solver, newton)
         eig, _ = spectrum(jnp.where(jnp.isfinite(jac).all(), jac, jnp.eye(v0.shape[0], dtype=v0.dtype)))
         # A fixed point of f^k that closes after fewer steps is a shorter cycle, not this branch's.
         shorter = minimal_period(points, k_, AttractorOptions(max_period=k)) < k_
         status = jnp.where((status == Status.OK) & shorter, jnp.int8(Status.CYCLE_NOT_FOUND), status)
-        return status, points[0], eig
+        return status, points[0], eig, sequences[:k]
 
     return compiling.jit(over_rows(one, sub_batch_size(model, solver)), model)
 
 
 def _evaluate(model, k, solver, newton, params: Mapping[str, np.ndarray], v0: np.ndarray):
-    """Re-solve at a batch of parameter sets, :data:`CALL_ROWS` per call (one compiled shape)."""
+    """Re-solve at a batch of parameter sets, :data:`CALL_ROWS` per call (one compiled shape):
+    ``(status, v, multipliers, sequences)``, ``sequences`` ``(rows, k)`` int64."""
     rows = Rows({k_: np.asarray(x, np.float64) for k_, x in params.items()}, CycleGuess(np.asarray(v0, np.float64)))
-    status, v, eig = run_chunks(_solver(model, k, solver, newton), rows, CALL_ROWS, None)
-    return np.asarray(status), np.asarray(v), np.asarray(eig)
+    status, v, eig, sequences = run_chunks(_solver(model, k, solver, newton), rows, CALL_ROWS, None)
+    return np.asarray(status), np.asarray(v), np.asarray(eig), np.asarray(sequences).reshape(len(status), k)
 
 
 def follow(model: Walker, lines: Mapping[str, np.ndarray], v0: np.ndarray, start: int, period: int = 1,
@@ -183,7 +210,7 @@ def follow(model: Walker, lines: Mapping[str, np.ndarray], v0: np.ndarray, start
         prev = v0.copy() if order.start == start else v[:, start].copy()
         prev = np.where(np.isfinite(prev), prev, v0)
         for i in order:
-            st, v_i, mu_i = _evaluate(model, period, solver, newton, _params_at(lines, None, rows, None, np.full(n_lines, i)), prev)
+            st, v_i, mu_i, _ = _evaluate(model, period, solver, newton, _params_at(lines, None, rows, None, np.full(n_lines, i)), prev)
             status[:, i], v[:, i], mu[:, i] = st, np.where((st == 0)[:, None], v_i, np.nan), np.where((st == 0)[:, None], mu_i, np.nan)
             prev = np.where((st == 0)[:, None], v_i, prev)
     return status, v, mu
@@ -201,6 +228,7 @@ def locate(
     solver: SolverOptions = SolverOptions(),
     newton: NewtonOptions = NewtonOptions(),
     progress=None,
+    sequences: np.ndarray | None = None,
 ) -> Bifurcations:
     """Every bifurcation between neighbouring points of ``n_lines`` lines of ``n`` points.
 
@@ -213,55 +241,111 @@ def locate(
         period: k, the map's number of steps.
         progress: ``None``, or a progress bar with tqdm's ``total``, ``update(n)``
             and ``refresh()``: its total is set to the rounds of batched solves
-            planned (the edges' bisections exactly, the sign changes' regula
-            falsi at most ``options.max_iter``, lowered when they end sooner)
-            and advanced by one per round.
+            planned (the edges' and collisions' bisections exactly, the sign
+            changes' regula falsi at most ``options.max_iter``, lowered when
+            they end sooner) and advanced by one per round.
+        sequences: ``(n_lines, n)`` (period 1) or ``(n_lines, n, k)`` int64 sequence
+            codes of the cycles' steps (:mod:`jaxwalk.event_log`), or ``None``
+            (not known: no border collision is located, and sign changes are
+            taken to be continuous).
 
     Returns:
         :class:`Bifurcations`, rows ordered by line then parameter.
     """
     status = np.asarray(status)
-    tests = indicators(multipliers)
-    sign_rows, edge_rows = [], []
     n_lines, n = status.shape
+    x = np.asarray(lines[axis], np.float64)
+    known = sequences is not None
+    seq = np.asarray(sequences, np.int64).reshape(n_lines, n, -1) if known else np.zeros((n_lines, n, period), np.int64)
+    seq = np.where((status == Status.OK)[..., None], seq, 0)
+    tests = indicators(multipliers)
+    gait = lambda line, j: {"x": x[line, j], "v": v[line, j], "mu": multipliers[line, j], "s": seq[line, j]}
+    smooth, edge_rows, changes = [], [], []  # ([line, i, lo, hi]), (line, found, lost), ([line, i, lo, hi])
     for line, i in ((line, i) for line in range(n_lines) for i in range(n - 1)):
-        a, b = (line, i), (line, i + 1)
-        ok_a, ok_b = status[a] == Status.OK, status[b] == Status.OK
+        ok_a, ok_b = status[line, i] == Status.OK, status[line, i + 1] == Status.OK
         if ok_a and ok_b:
-            for kind, column in ((Kind.FOLD, 0), (Kind.FLIP, 1), (Kind.NEIMARK_SACKER, 2)):
-                if np.sign(tests[a][column]) * np.sign(tests[b][column]) < 0:
-                    sign_rows.append((kind, column, line, i))
+            (changes if np.any(seq[line, i] != seq[line, i + 1]) else smooth).append((line, i, gait(line, i), gait(line, i + 1)))
         elif ok_a != ok_b:
             edge_rows.append((line, i, i + 1) if ok_a else (line, i + 1, i))  # (line, found, lost)
-    rounds = _Rounds(progress, sign_rows, edge_rows, np.asarray(lines[axis], np.float64), options)
-    rows = _shrink_signs(model, lines, axis, v, tests, sign_rows, period, options, solver, newton, rounds)
-    rows += _shrink_edges(model, lines, axis, status, v, multipliers, edge_rows, period, options, solver, newton, rounds)
+    rounds = _Rounds(progress, smooth or changes or edge_rows, edge_rows, changes, x, options)
+    solve = lambda at, line, i, guess: _evaluate(model, period, solver, newton, _params_at(lines, axis, line, at, i), guess)
+    edges = shrink_edges(solve, edge_rows, x, status, v, multipliers, seq, options.tol, rounds)
+    for e in edges:  # between the line's last grid gait and the edge's last gait: more to locate
+        found = gait(e["line"], e["i"])
+        last = {"x": e["good"], "v": e["v"], "mu": e["multipliers"], "s": e["sequences"]}
+        lo, hi = (found, last) if found["x"] <= last["x"] else (last, found)
+        (changes if np.any(lo["s"] != hi["s"]) else smooth).append((e["line"], e["i"], lo, hi))
+    brackets = lambda line, i, lo, hi: {"line": line, "i": i, "lo": lo, "hi": hi}
+    collisions = shrink_collisions(solve, [brackets(*c) for c in changes], options.tol, rounds)
+    for (_, _, lo, hi), c in zip(changes, collisions):  # either side of a located collision is one sequence's
+        if c["status"] == Status.OK:
+            smooth.append((c["line"], c["i"], lo, {"x": c["lo"], "v": c["v_lo"], "mu": c["multipliers_lo"], "s": c["sequences_lo"]}))
+            smooth.append((c["line"], c["i"], {"x": c["hi"], "v": c["v_hi"], "mu": c["multipliers_hi"], "s": c["sequences_hi"]}, hi))
+    rows = _shrink_signs(solve, [b for s_ in smooth for b in _sign_brackets(*s_)], options, rounds)
+    rows += [_collision_row(c) for c in collisions]
+    rows += [_edge_row(e, options) for e in edges]
     rows.sort(key=lambda r: (r["line"], r["parameter"]))
-    n_v = v.shape[-1]
-    col = lambda key, dtype: np.array([r[key] for r in rows], dtype)
+    return _table(rows, v.shape[-1], period)
+
+
+def _table(rows: list[dict], n_v: int, period: int) -> Bifurcations:
+    nan = np.full(n_v, np.nan + 0j)
+    col = lambda key, dtype, default=0: np.array([r.get(key, default) for r in rows], dtype)
     return Bifurcations(
         kind=col("kind", np.int8), parameter=col("parameter", np.float64), line=col("line", np.int32),
         period=np.full(len(rows), period, np.int32), status=col("status", np.int8),
         v=np.array([r["v"] for r in rows], np.float64).reshape(-1, n_v),
         multipliers=np.array([r["multipliers"] for r in rows], np.complex128).reshape(-1, n_v),
         beyond=col("beyond", np.int8),
+        sequence=np.array([r["sequences"][0] for r in rows], np.int64),
+        sequence_beyond=col("sequence_beyond", np.int64),
+        multipliers_beyond=np.array([r.get("multipliers_beyond", nan) for r in rows], np.complex128).reshape(-1, n_v),
+        jumps=col("jumps", np.int8),
     )
+
+
+def _collision_row(c: dict) -> dict:
+    return {"kind": Kind.BORDER_COLLISION, "parameter": c["parameter"], "line": c["line"], "status": c["status"],
+            "v": c["v_lo"], "multipliers": c["multipliers_lo"], "beyond": Status.OK, "sequences": c["sequences_lo"],
+            "sequence_beyond": c["sequences_hi"][0], "multipliers_beyond": c["multipliers_hi"],
+            "jumps": jumps(indicators(c["multipliers_lo"])[None], indicators(c["multipliers_hi"])[None])[0]}
+
+
+def _edge_row(r: dict, options: BifurcationOptions) -> dict:
+    """An edge's kind: a fold where a real multiplier is near +1, grazing where a step failed beyond, else lost."""
+    mu = r["multipliers"]
+    real = mu[np.abs(mu.imag) < 1e-9].real
+    near_one = real.size and np.min(np.abs(real - 1.0)) < options.fold_window
+    step_failed = r["beyond"] not in (Status.NO_CONVERGENCE, Status.NONFINITE, Status.NOT_DIFFERENTIABLE)
+    kind = Kind.FOLD if near_one else Kind.GRAZING if step_failed else Kind.LOST
+    return {**r, "kind": kind, "status": Status.OK}
+
+
+def _sign_brackets(line, i, lo: dict, hi: dict) -> list[dict]:
+    """The test functions whose sign differs between two gaits of one sequence
+    (``lo``, ``hi``: ``x``, ``v``, ``mu``, ``s``): one bracket each."""
+    t_lo, t_hi = indicators(lo["mu"]), indicators(hi["mu"])
+    out = []
+    for kind, column in ((Kind.FOLD, 0), (Kind.FLIP, 1), (Kind.NEIMARK_SACKER, 2)):
+        if np.sign(t_lo[column]) * np.sign(t_hi[column]) < 0:
+            out.append({"kind": kind, "column": column, "line": line, "i": i, "lo": lo["x"], "hi": hi["x"],
+                        "f_lo": t_lo[column], "f_hi": t_hi[column], "v_lo": lo["v"], "v_hi": hi["v"], "sequences": lo["s"]})
+    return out
 
 
 class _Rounds:
     """Counts :func:`locate`'s rounds of batched solves on a progress bar (or nowhere)."""
 
-    def __init__(self, bar, sign_rows, edge_rows, x: np.ndarray, options: BifurcationOptions):
+    def __init__(self, bar, signs, edge_rows, collision_rows, x: np.ndarray, options: BifurcationOptions):
         self.bar = bar
-        self.sign_left = (options.max_iter + 1) if sign_rows else 0  # the last +1: the midpoints' solve
-        if edge_rows:
-            width = max(abs(x[r[0], r[2]] - x[r[0], r[1]]) for r in edge_rows)
-            edge = int(np.ceil(np.log2(max(width / (2 * options.tol), 1.0)))) + 1
-        else:
-            edge = 0
-        self.edge_left = edge  # bisection rounds planned, and one to solve at the failed grid point
+        self.sign_left = (options.max_iter + 1) if signs else 0  # the last +1: the midpoints' solve
+        bisections = lambda rows, a, b: (int(np.ceil(np.log2(max(max(abs(x[r[0], b(r)] - x[r[0], a(r)]) for r in rows)
+                                                                      / (2 * options.tol), 1.0)))) if rows else 0)
+        # edges: one more round to solve at the failed grid point
+        self.edge_left = bisections(edge_rows, lambda r: r[1], lambda r: r[2]) + (1 if edge_rows else 0)
+        self.collision_left = bisections(collision_rows, lambda r: r[1], lambda r: r[1] + 1)
         if bar is not None:
-            bar.total = self.sign_left + edge
+            bar.total = self.sign_left + self.edge_left + self.collision_left
             bar.refresh()
 
     def advance(self, signs: bool = False) -> None:
@@ -277,21 +361,38 @@ class _Rounds:
             self.bar.refresh()
         self.sign_left = min(self.sign_left, 1)
 
-    def edge_round(self) -> None:
-        """One round of the edges' location; past the plan (a grid point found to
-        hold the gait moves the edge on to the next interval) the total grows."""
-        if self.edge_left > 0:
-            self.edge_left -= 1
+    def no_signs(self) -> None:
+        """No sign change to locate after all (the collisions had none beside them)."""
+        if self.bar is not None and self.sign_left > 0:
+            self.bar.total -= self.sign_left
+            self.bar.refresh()
+        self.sign_left = 0
+
+    def _planned_round(self, left: str) -> None:
+        """One round of a bisection; past the plan (an edge moved on to the next interval) the total grows."""
+        if getattr(self, left) > 0:
+            setattr(self, left, getattr(self, left) - 1)
         elif self.bar is not None:
             self.bar.total += 1
         self.advance()
 
-    def edges_done(self) -> None:
-        """The edges are located; rounds planned but not needed leave the total."""
-        if self.bar is not None and self.edge_left > 0:
-            self.bar.total -= self.edge_left
+    def _planned_done(self, left: str) -> None:
+        if self.bar is not None and getattr(self, left) > 0:
+            self.bar.total -= getattr(self, left)
             self.bar.refresh()
-        self.edge_left = 0
+        setattr(self, left, 0)
+
+    def edge_round(self) -> None:
+        self._planned_round("edge_left")
+
+    def edges_done(self) -> None:
+        self._planned_done("edge_left")
+
+    def collision_round(self) -> None:
+        self._planned_round("collision_left")
+
+    def collisions_done(self) -> None:
+        self._planned_done("collision_left")
 
 
 def _params_at(lines, axis, line_index: np.ndarray, x: np.ndarray, i: np.ndarray) -> dict[str, np.ndarray]:
@@ -302,18 +403,23 @@ def _params_at(lines, axis, line_index: np.ndarray, x: np.ndarray, i: np.ndarray
     return out
 
 
-def _shrink_signs(model, lines, axis, v, tests, rows, period, options, solver, newton, rounds: _Rounds) -> list[dict]:
-    """Illinois regula falsi on each sign-change bracket, all brackets batched."""
-    if not rows:
+def _shrink_signs(solve, brackets: list[dict], options: BifurcationOptions, rounds: _Rounds) -> list[dict]:
+    """Illinois regula falsi on each sign-change bracket (:func:`_sign_brackets`), all batched.
+
+    Every trial's gait must take the bracket's event sequence: one that does
+    not lies beyond a border collision inside the bracket (two between
+    neighbouring grid points), where the test function need not be
+    continuous; that bracket ends ``NO_CONVERGENCE``, unlocated.
+    """
+    if not brackets:
+        rounds.no_signs()
         return []
-    kind = np.array([r[0] for r in rows]); column = np.array([r[1] for r in rows])
-    line = np.array([r[2] for r in rows]); i = np.array([r[3] for r in rows])
-    x = np.asarray(lines[axis], np.float64)
-    lo, hi = x[line, i], x[line, i + 1]
-    f_lo, f_hi = tests[line, i, column], tests[line, i + 1, column]
-    v_lo, v_hi = v[line, i], v[line, i + 1]
-    state = np.full(len(rows), Status.IN_PROGRESS, np.int8)
-    side = np.zeros(len(rows), np.int8)  # which end was kept last (Illinois halves its value when kept twice)
+    get = lambda key: np.array([b[key] for b in brackets])
+    kind, column, line, i = get("kind"), get("column"), get("line"), get("i")
+    lo, hi, f_lo, f_hi = get("lo").astype(float), get("hi").astype(float), get("f_lo"), get("f_hi")
+    v_lo, v_hi, seq = get("v_lo"), get("v_hi"), get("sequences")
+    state = np.full(len(brackets), Status.IN_PROGRESS, np.int8)
+    side = np.zeros(len(brackets), np.int8)  # which end was kept last (Illinois halves its value when kept twice)
     for it in range(options.max_iter):
         active = (state == Status.IN_PROGRESS) & (np.abs(hi - lo) > 2 * options.tol)
         state[(state == Status.IN_PROGRESS) & ~active] = Status.OK
@@ -326,8 +432,9 @@ def _shrink_signs(model, lines, axis, v, tests, rows, period, options, solver, n
         trial = np.where((it % 4 == 3) | ~np.isfinite(secant), 0.5 * (lo + hi), np.clip(secant, lo + 0.01 * width, hi - 0.01 * width))
         w = ((trial - lo) / np.where(width == 0, 1, width))[:, None]
         idx = np.flatnonzero(active)
-        st, v_t, mu = _evaluate(model, period, solver, newton, _params_at(lines, axis, line[idx], trial[idx], i[idx]),
-                                ((1 - w) * v_lo + w * v_hi)[idx])
+        st, v_t, mu, s_t = solve(trial[idx], line[idx], i[idx], ((1 - w) * v_lo + w * v_hi)[idx])
+        other = np.any((s_t != seq[idx]) & (seq[idx] != 0), axis=-1)  # 0: the bracket's sequence is not known
+        st = np.where((st == Status.OK) & other, np.int8(Status.NO_CONVERGENCE), st)
         failed = st != Status.OK
         state[idx[failed]] = st[failed]
         good = idx[~failed]
@@ -346,137 +453,12 @@ def _shrink_signs(model, lines, axis, v, tests, rows, period, options, solver, n
     rounds.signs_done()
     rounds.advance(signs=True)
     mid = 0.5 * (lo + hi)
-    st, v_m, mu_m = _evaluate(model, period, solver, newton, _params_at(lines, axis, line, mid, i), 0.5 * (v_lo + v_hi))
+    st, v_m, mu_m, _ = solve(mid, line, i, 0.5 * (v_lo + v_hi))
     out = []
-    for r in range(len(rows)):
+    for r in range(len(brackets)):
         status = state[r] if state[r] != Status.OK else st[r]
         if kind[r] == Kind.NEIMARK_SACKER and not _complex_pair_on_circle(mu_m[r]):
             continue  # a neutral saddle (real mu_i mu_j = 1), not a bifurcation of the cycle
         out.append({"kind": kind[r], "parameter": mid[r], "line": line[r], "status": status, "v": v_m[r],
-                    "multipliers": mu_m[r], "beyond": Status.OK})
+                    "multipliers": mu_m[r], "beyond": Status.OK, "sequences": seq[r]})
     return out
-
-
-def _shrink_edges(model, lines, axis, status, v, multipliers, rows, period, options, solver, newton,
-                  rounds: _Rounds) -> list[dict]:
-    """Bisection on "the cycle is followed there" at each edge of a line's gaits.
-
-    A Newton solve that fails from the last found cycle does not show that the
-    cycle is gone: far from the bracket's found end its start can lie where a
-    step fails although the cycle exists (the flat-foot walker's unstable
-    gaits, whose steps diverge from an offset start). Such a failure is checked
-    by following the cycle in :data:`APPROACH_STEPS` steps (:func:`_approach`);
-    the bracket becomes the last step reached and the first that failed. The
-    same holds for the grid point beyond the edge, whose failure the line's own
-    continuation found from its other side or from far away: once the bracket
-    has closed on it, it is solved from the cycle next to it, and where the
-    cycle is found there the edge moves on to the next interval (or, past the
-    line's last point, there is none).
-    """
-    if not rows:
-        return []
-    e = _Edges.start(rows, np.asarray(lines[axis], np.float64), status, v, multipliers)
-    solve = lambda at, which, guess: _evaluate(model, period, solver, newton, _params_at(lines, axis, e.line[which], at, e.ok_i[which]), guess)
-    while True:
-        narrow = np.abs(e.bad - e.good) <= 2 * options.tol
-        probe = narrow & e.untested & ~e.ended
-        idx = np.flatnonzero((~narrow | probe) & ~e.ended)
-        if idx.size == 0:
-            break
-        rounds.edge_round()
-        at = np.where(probe, e.bad, 0.5 * (e.good + e.bad))[idx]
-        st, v_at, mu_at = solve(at, idx, e.v_good[idx])
-        lost = np.flatnonzero(st != Status.OK)
-        reached, v_r, mu_r, failed, why = _approach(solve, idx[lost], e.good[idx[lost]], at[lost], e.v_good[idx[lost]], e.mu_good[idx[lost]])
-        found = st == Status.OK
-        found[lost] = ~np.isfinite(failed)
-        v_at[lost], mu_at[lost] = v_r, mu_r
-        e.found_at(idx[found], at[found], v_at[found], mu_at[found], probe[idx[found]])
-        k = np.flatnonzero(~found)
-        which = np.searchsorted(lost, k)  # rows of `lost` that the approach confirmed
-        e.lost_at(idx[k], reached[which], v_r[which], mu_r[which], failed[which], why[which])
-    rounds.edges_done()
-    out = []
-    for r in np.flatnonzero(~e.ended):
-        real = e.mu_good[r][np.abs(e.mu_good[r].imag) < 1e-9].real
-        near_one = real.size and np.min(np.abs(real - 1.0)) < options.fold_window
-        step_failed = e.beyond[r] not in (Status.NO_CONVERGENCE, Status.NONFINITE, Status.NOT_DIFFERENTIABLE)
-        kind = Kind.FOLD if near_one else Kind.GRAZING if step_failed else Kind.LOST
-        out.append({"kind": kind, "parameter": 0.5 * (e.good[r] + e.bad[r]), "line": e.line[r], "status": Status.OK,
-                    "v": e.v_good[r], "multipliers": e.mu_good[r], "beyond": e.beyond[r]})
-    return out
-
-
-@dataclasses.dataclass
-class _Edges:
-    """The brackets of :func:`_shrink_edges`, one row per edge: ``good`` (the
-    cycle found there: ``v_good``, ``mu_good``) and ``bad`` (the failure
-    ``beyond``; ``untested`` while it is the grid point as the line's
-    continuation left it), on line ``line`` between grid points ``ok_i`` and
-    ``bad_i``; ``ended``: the cycle was followed past the line's last point."""
-
-    line: np.ndarray
-    ok_i: np.ndarray
-    bad_i: np.ndarray
-    x: np.ndarray
-    status: np.ndarray
-    good: np.ndarray
-    bad: np.ndarray
-    v_good: np.ndarray
-    mu_good: np.ndarray
-    beyond: np.ndarray
-    untested: np.ndarray
-    ended: np.ndarray
-
-    @classmethod
-    def start(cls, rows, x, status, v, multipliers) -> "_Edges":
-        line, ok_i, bad_i = (np.array([r[k] for r in rows]) for k in range(3))
-        return cls(line, ok_i, bad_i, x, status, x[line, ok_i].copy(), x[line, bad_i].copy(), v[line, ok_i].copy(),
-                   np.asarray(multipliers)[line, ok_i].copy(), status[line, bad_i].astype(np.int8),
-                   np.ones(len(rows), bool), np.zeros(len(rows), bool))
-
-    def found_at(self, r, at, v, mu, probed) -> None:
-        """The cycle was found at ``at``; a probed grid point moves the edge on one interval."""
-        self.good[r], self.v_good[r], self.mu_good[r] = at, v, mu
-        moved = r[probed]
-        self.bad_i[moved] += np.sign(self.bad_i[moved] - self.ok_i[moved])
-        past = (self.bad_i[moved] < 0) | (self.bad_i[moved] >= self.x.shape[1])
-        self.ended[moved[past]] = True
-        on = moved[~past]
-        self.bad[on], self.beyond[on] = self.x[self.line[on], self.bad_i[on]], self.status[self.line[on], self.bad_i[on]]
-
-    def lost_at(self, r, reached, v, mu, failed, why) -> None:
-        """The cycle, followed, was found up to ``reached`` and lost at ``failed`` (status ``why``)."""
-        self.good[r], self.v_good[r], self.mu_good[r] = reached, v, mu
-        self.bad[r], self.beyond[r], self.untested[r] = failed, why, False
-
-
-#: Steps in which :func:`_approach` follows a cycle to where a direct solve failed.
-APPROACH_STEPS = 4
-
-
-def _approach(solve, which: np.ndarray, good: np.ndarray, target: np.ndarray, v_good: np.ndarray, mu_good: np.ndarray):
-    """Follow the cycles of rows ``which`` from ``good`` towards ``target`` in
-    :data:`APPROACH_STEPS` equal steps, each solve from the last found cycle.
-
-    Returns ``(reached, v_reached, mu_reached, failed, status)`` per row: the
-    last value where the cycle was found, its point and multipliers, the first
-    value where it was not (NaN if the target itself was reached) and that
-    failure's status.
-    """
-    reached, v_reached, mu_reached = good.copy(), v_good.copy(), mu_good.copy()
-    failed = target.copy()
-    why = np.full(len(which), Status.NO_CONVERGENCE, np.int8)
-    going = np.ones(len(which), bool)
-    for j in range(1, APPROACH_STEPS + 1):
-        idx = np.flatnonzero(going)
-        if idx.size == 0:
-            break
-        at = good[idx] + (target[idx] - good[idx]) * j / APPROACH_STEPS
-        st, v_at, mu_at = solve(at, which[idx], v_reached[idx])
-        ok = st == Status.OK
-        reached[idx[ok]], v_reached[idx[ok]], mu_reached[idx[ok]] = at[ok], v_at[ok], mu_at[ok]
-        failed[idx[~ok]], why[idx[~ok]] = at[~ok], st[~ok]
-        going[idx[~ok]] = False
-    failed[going] = np.nan  # every step found, the target too: no failure on this side
-    return reached, v_reached, mu_reached, failed, why

@@ -119,6 +119,7 @@ class Walker:
             do not say (:attr:`jaxwalk.stepbase.SolverOptions.carry_step`).
         cpu_fusion_emitters: whether XLA's CPU fusion emitters compile the
             model's programs (:mod:`jaxwalk.compiling`).
+        event_log: the context entries logging the step's events, or ``None``.
 
     Models are compared and hashed by value, their class and instance
     attributes (which must be hashable): every jitted program closes over its
@@ -177,6 +178,11 @@ class Walker:
     #: search 1.2-1.9x faster, run the flat-foot walker's as fast and the kneed
     #: walker's 2-3 % slower, but the passive walkers' 64-wide batches 1.5x slower.
     cpu_fusion_emitters: bool = True
+    #: The context entries where the model logs its step's events ``(history,
+    #: count)``, each event's guard index a base-16 digit of the history
+    #: (:mod:`jaxwalk.event_log`), or ``None``: the model logs none, and no
+    #: change of a gait's event sequence is located (:mod:`jaxwalk.bifurcation`).
+    event_log: tuple[str, str] | None = None
 
     def _identity(self) -> tuple:
         return type(self), tuple(sorted(vars(self).items()))

@@ -27,7 +27,7 @@ def _fake_evaluate(model, k, solver, newton, params, v0):
     # Beyond the edge a step fails (a grazing edge); short of it, far starts do not converge.
     status = np.where(found, Status.OK, np.where(x >= EDGE, Status.SCUFFING, Status.NO_CONVERGENCE)).astype(np.int8)
     v = np.stack([x, np.zeros_like(x)], axis=1)
-    return status, v, np.tile(np.array([0.5, 0.1], np.complex128), (len(x), 1))
+    return status, v, np.tile(np.array([0.5, 0.1], np.complex128), (len(x), 1)), np.zeros((len(x), k), np.int64)
 
 
 class _Bar:

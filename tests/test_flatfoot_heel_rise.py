@@ -21,7 +21,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from jaxwalk import compiling
+from jaxwalk import compiling, event_log
 from jaxwalk.models import get_model
 from jaxwalk.models.flatfoot import events as ev
 from jaxwalk.models.flatfoot import geometry as geo
@@ -227,6 +227,8 @@ def test_with_only_the_stance_spring_reset_a_stable_gait_ends_its_step_heel_up(c
     # The sweeps' searches (Newton to 1e-8) and this one differ by 1.1e-8 and 3e-9.
     assert abs(lam - lam_search) < 1e-6, lam
     assert _names(res.ctx)[-2:] == ["heel_rise", "toe_strike"]
+    # The sequence code a sweep writes (event_sequence) says the same.
+    assert event_log.decode(int(event_log.sequence_code(MODEL, res.ctx)), MODEL.guards) == tuple(_names(res.ctx))
     # Heel up at toe-strike: the new trailing ankle starts above the ground.
     y0, _, _ = MODEL.section_to_state(v, params)
     assert float(geo.ankle(y0[:6], params, 2)[1]) > raised  # measured 2.2e-5 (near grazing) and 5.8e-3

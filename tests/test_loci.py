@@ -27,7 +27,8 @@ def with_table(ds, rows, others=("m_h",)):
     found = Bifurcations(
         kind=kind.astype(np.int8), parameter=gamma.astype(float), line=line.astype(np.int64),
         period=np.ones(n, np.int32), status=status.astype(np.int8), v=np.zeros((n, 3)),
-        multipliers=np.zeros((n, 3), complex), beyond=np.zeros(n, np.int8),
+        multipliers=np.zeros((n, 3), complex), beyond=np.zeros(n, np.int8), sequence=np.zeros(n, np.int64),
+        sequence_beyond=np.zeros(n, np.int64), multipliers_beyond=np.full((n, 3), np.nan + 0j), jumps=np.zeros(n, np.int8),
     )  # fmt: skip
     shape = tuple(ds.sizes[d] for d in others)
     return ds.merge(table_dataset(found, ds, "gamma", list(others), shape))

@@ -6,14 +6,20 @@ the folds, flips, Neimark-Sacker points and lost-gait edges between their
 points, to 1e-6 in the continuation parameter. They are written as a table
 along a ``bifurcation`` dimension (one row per point):
 
-* ``bifurcation_kind`` int8 (CF flags: ``fold flip neimark_sacker grazing lost``);
+* ``bifurcation_kind`` int8 (CF flags: ``fold flip neimark_sacker grazing lost
+  branch_point border_collision``; a border collision is located where the
+  gaits' ``event_sequence`` changes, for models that log their events);
 * ``bifurcation_parameter``: the continuation parameter's value;
 * ``bifurcation_<axis>`` for every other grid axis: the line's value of it;
 * ``bifurcation_line`` int32: the line's index in C order of the other axes;
 * ``bifurcation_status`` int8: 0, or why the location did not reach 1e-6;
 * ``bifurcation_beyond`` int8: the status beyond a lost-gait edge (0 for sign changes);
 * ``bifurcation_point`` ``(bifurcation, section)`` and
-  ``bifurcation_multipliers_real`` / ``_imag`` ``(bifurcation, eigen)`` there.
+  ``bifurcation_multipliers_real`` / ``_imag`` ``(bifurcation, eigen)`` there;
+* ``bifurcation_sequence`` int64: the gait's event sequence code there; for a
+  border collision, ``bifurcation_sequence_beyond``,
+  ``bifurcation_multipliers_beyond_real`` / ``_imag`` on its other side and
+  ``bifurcation_jumps`` (which test functions change sign by the jump).
 
 The table is computed again, the same, when a finished-but-not-renamed run is resumed.
 """
@@ -56,8 +62,10 @@ def table(config, model, store: Path, options, params, progress=None):
     v = move(ds["fixed_point"].values).reshape(-1, n, len(model.section_names))
     eig = move(ds["eigenvalues_real"].values + 1j * ds["eigenvalues_imag"].values).reshape(v.shape)
     lines = {name: move(values).reshape(-1, n) for name, values in params.items()}
+    # Written by [analysis] event_sequence (on by default where the model logs its events).
+    sequences = move(ds["event_sequence"].values).reshape(-1, n) if "event_sequence" in ds else None
     found = locate(model, lines, axis, status, np.nan_to_num(v), np.nan_to_num(eig), solver=options.solver, newton=options.newton,
-                   progress=progress)
+                   progress=progress, sequences=sequences)
     return table_dataset(found, ds, axis, others, tuple(config.shape[config.dims.index(d)] for d in others))
 
 
@@ -72,6 +80,7 @@ def table_dataset(found, ds, axis: str, others: list[str], line_shape: tuple[int
 
     where = np.unravel_index(found.line, line_shape) if others else ()
     dim = "bifurcation"
+    names = {"event_names": ds["event_sequence"].attrs["event_names"]} if "event_sequence" in ds else {}
     kinds = list(Kind)
     data = {
         "bifurcation_kind": (dim, found.kind, {
@@ -88,9 +97,21 @@ def table_dataset(found, ds, axis: str, others: list[str], line_shape: tuple[int
         "bifurcation_beyond": (dim, found.beyond, {
             "long_name": "status beyond an edge where the gait is lost (0 for sign changes)", **flag_attributes(),
         }),
-        "bifurcation_point": ((dim, "section"), found.v, {"long_name": "the gait's fixed point at the bifurcation"}),
+        "bifurcation_point": ((dim, "section"), found.v, {
+            "long_name": "the gait's fixed point at the bifurcation (a border collision's: on its lower parameter's side)"}),
         "bifurcation_multipliers_real": ((dim, "eigen"), found.multipliers.real, {"long_name": "real part of the multipliers there"}),
         "bifurcation_multipliers_imag": ((dim, "eigen"), found.multipliers.imag, {"long_name": "imaginary part of the multipliers there"}),
+        "bifurcation_sequence": (dim, found.sequence, {
+            "long_name": "event sequence code of the gait's step there (jaxwalk.event_log; 0: not logged)", **names}),
+        "bifurcation_sequence_beyond": (dim, found.sequence_beyond, {
+            "long_name": "a border collision's event sequence code on its higher parameter's side (0 for other kinds)", **names}),
+        "bifurcation_multipliers_beyond_real": ((dim, "eigen"), found.multipliers_beyond.real, {
+            "long_name": "real part of a border collision's multipliers on its higher parameter's side (NaN for other kinds)"}),
+        "bifurcation_multipliers_beyond_imag": ((dim, "eigen"), found.multipliers_beyond.imag, {
+            "long_name": "imaginary part of a border collision's multipliers on its higher parameter's side (NaN for other kinds)"}),
+        "bifurcation_jumps": (dim, found.jumps, {
+            "long_name": "test functions whose sign changes across a border collision, by the multipliers' jump "
+                         "(bit mask: fold 1, flip 2, neimark_sacker 4; 0 for other kinds)"}),
     }
     for d, index in zip(others, where):
         data[f"bifurcation_{d}"] = (dim, np.asarray(ds[d].values)[index], {"long_name": f"the line's value of {d}"})

@@ -37,13 +37,14 @@ MAX_JUMP = 0.1
 #: contour is the solid black line, so no locus is solid black.
 #: Keyed by the kind's name in the dataset's ``flag_meanings`` (the file is the
 #: record of what its codes meant, as for statuses).
-STYLES: dict[str, tuple[str, str, str]] = {
+STYLES: dict[str, tuple[object, str, str]] = {
     "fold": ("-", "o", "fold (multiplier +1)"),
     "flip": ("--", "s", "flip (multiplier -1)"),
     "neimark_sacker": ("-.", "D", "Neimark-Sacker (|complex pair| = 1)"),
     "grazing": (":", "^", "grazing (a step starts to fail)"),
     "lost": (":", "x", "gait lost (no fixed point beyond)"),
     "branch_point": ("", "P", "branch point (multiplier +1)"),
+    "border_collision": ((0, (1, 1, 4, 1)), "v", "border collision (event order changes)"),
 }
 #: Style of a kind this version does not know.
 OTHER_STYLE = (":", "o", "")

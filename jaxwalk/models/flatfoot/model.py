@@ -138,6 +138,7 @@ class FlatFootWalker(Walker):
     limit_guards = ("slip", "slip", "foot_roll", "foot_roll")  # of stance_friction, heel_friction, cop_toe, cop_heel
     failure_guards = tuple(events.GUARD_NAMES[g] for g in events.FAILURES)
     context = ph.CONTEXT
+    event_log = ("history", "n_logged")  # every phase's end and the step's failure; the clearance extrema are not logged
     # The stance heel stays down until the other foot is flat (the paper's
     # phases); FlatFootHeelRiseWalker lets it rise.
     heel_rise = False

@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 
+from jaxwalk import event_log
 from jaxwalk.models.flatfoot import geometry as geo
 
 # Phases.
@@ -91,8 +92,8 @@ LATCHED, RELEASED, RELATCHED = 0.0, 1.0, 2.0
 #: ``min_clearance`` before the swing foot has passed a minimum (no foot in the
 #: air reaches a leg length above the ground).
 NO_MINIMUM = 1.0
-HISTORY_BASE = 16
-HISTORY_DEPTH = 13  # 16**13 = 2**52: exact in float64
+HISTORY_BASE = event_log.BASE
+HISTORY_DEPTH = event_log.DEPTH  # 16**13 = 2**52: exact in float64
 
 
 def _mask(*rows: int) -> list[float]:
@@ -162,8 +163,7 @@ def constraints(q, params, ctx):
 
 def log_event(ctx, code):
     """Append event code ``code`` (int) to the history in ``ctx``."""
-    h = jnp.mod(ctx[C["history"]] * HISTORY_BASE + code, float(HISTORY_BASE**HISTORY_DEPTH))
-    return ctx.at[C["history"]].set(h).at[C["n_logged"]].add(1.0)
+    return ctx.at[C["history"]].set(event_log.append(ctx[C["history"]], code)).at[C["n_logged"]].add(1.0)
 
 
 def decode_history(ctx) -> list[int]:

@@ -1,0 +1,146 @@
+"""Where a continuation line's gait is lost: the edge located by bisection (:func:`shrink_edges`).
+
+Part of :func:`jaxwalk.bifurcation.locate`. The re-solve is given as
+``solve(at, rows, guess) -> (status, v, multipliers, sequences)`` (the batched
+Newton of :mod:`jaxwalk.bifurcation` at parameter values ``at`` of bracket rows
+``rows``, each from ``guess``), so this module needs no program of its own.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from jaxwalk.status import Status
+
+#: Steps in which :func:`approach` follows a cycle to where a direct solve failed.
+APPROACH_STEPS = 4
+
+
+def shrink_edges(solve, rows, x: np.ndarray, status, v, multipliers, sequences, tol: float, rounds) -> list[dict]:
+    """Bisection on "the cycle is followed there" at each edge of a line's gaits.
+
+    ``rows``: ``(line, found, lost)`` grid indices of each edge; ``x`` the
+    continuation parameter ``(n_lines, n)``; ``sequences`` ``(n_lines, n, k)``
+    the grid's sequence codes; ``rounds`` counts the rounds of solves.
+
+    A Newton solve that fails from the last found cycle does not show that the
+    cycle is gone: far from the bracket's found end its start can lie where a
+    step fails although the cycle exists (the flat-foot walker's unstable
+    gaits, whose steps diverge from an offset start). Such a failure is checked
+    by following the cycle in :data:`APPROACH_STEPS` steps (:func:`approach`);
+    the bracket becomes the last step reached and the first that failed. The
+    same holds for the grid point beyond the edge, whose failure the line's own
+    continuation found from its other side or from far away: once the bracket
+    has closed on it, it is solved from the cycle next to it, and where the
+    cycle is found there the edge moves on to the next interval (or, past the
+    line's last point, there is none).
+
+    Returns one dict per edge still inside its line: ``parameter`` (the
+    bracket's midpoint), ``line``, ``good`` (the last parameter where the
+    cycle was found), ``v``, ``multipliers`` and ``sequences`` of that cycle,
+    ``i`` (the grid point it was followed from, the last found on the line),
+    ``beyond`` (the failure's status); ``kind`` is the caller's to decide.
+    """
+    if not rows:
+        return []
+    e = _Edges.start(rows, x, status, v, multipliers, sequences)
+    while True:
+        narrow = np.abs(e.bad - e.good) <= 2 * tol
+        probe = narrow & e.untested & ~e.ended
+        idx = np.flatnonzero((~narrow | probe) & ~e.ended)
+        if idx.size == 0:
+            break
+        rounds.edge_round()
+        at = np.where(probe, e.bad, 0.5 * (e.good + e.bad))[idx]
+        st, v_at, mu_at, s_at = solve(at, e.line[idx], e.ok_i[idx], e.v_good[idx])
+        lost = np.flatnonzero(st != Status.OK)
+        walk = lambda at_, which, guess: solve(at_, e.line[which], e.ok_i[which], guess)
+        reached, v_r, mu_r, s_r, failed, why = approach(walk, idx[lost], e.good[idx[lost]], at[lost], e.v_good[idx[lost]],
+                                                        e.mu_good[idx[lost]], e.s_good[idx[lost]])
+        found = st == Status.OK
+        found[lost] = ~np.isfinite(failed)
+        v_at[lost], mu_at[lost], s_at[lost] = v_r, mu_r, s_r
+        e.found_at(idx[found], at[found], v_at[found], mu_at[found], s_at[found], probe[idx[found]])
+        k = np.flatnonzero(~found)
+        which = np.searchsorted(lost, k)  # rows of `lost` that the approach confirmed
+        e.lost_at(idx[k], reached[which], v_r[which], mu_r[which], s_r[which], failed[which], why[which])
+    rounds.edges_done()
+    return [{"parameter": 0.5 * (e.good[r] + e.bad[r]), "line": e.line[r], "v": e.v_good[r], "multipliers": e.mu_good[r],
+             "sequences": e.s_good[r], "beyond": e.beyond[r], "good": e.good[r], "i": e.ok_i[r]}
+            for r in np.flatnonzero(~e.ended)]
+
+
+@dataclasses.dataclass
+class _Edges:
+    """The brackets of :func:`shrink_edges`, one row per edge: ``good`` (the
+    cycle found there: ``v_good``, ``mu_good``, its sequence codes ``s_good``)
+    and ``bad`` (the failure ``beyond``; ``untested`` while it is the grid point
+    as the line's continuation left it), on line ``line`` between grid points
+    ``ok_i`` and ``bad_i``; ``ended``: the cycle was followed past the line's last point."""
+
+    line: np.ndarray
+    ok_i: np.ndarray
+    bad_i: np.ndarray
+    x: np.ndarray
+    status: np.ndarray
+    good: np.ndarray
+    bad: np.ndarray
+    v_good: np.ndarray
+    mu_good: np.ndarray
+    s_good: np.ndarray
+    beyond: np.ndarray
+    untested: np.ndarray
+    ended: np.ndarray
+
+    @classmethod
+    def start(cls, rows, x, status, v, multipliers, sequences) -> "_Edges":
+        line, ok_i, bad_i = (np.array([r[k] for r in rows]) for k in range(3))
+        return cls(line, ok_i, bad_i, x, status, x[line, ok_i].copy(), x[line, bad_i].copy(), v[line, ok_i].copy(),
+                   np.asarray(multipliers)[line, ok_i].copy(), np.asarray(sequences)[line, ok_i].copy(),
+                   status[line, bad_i].astype(np.int8), np.ones(len(rows), bool), np.zeros(len(rows), bool))
+
+    def found_at(self, r, at, v, mu, s, probed) -> None:
+        """The cycle was found at ``at``; a probed grid point moves the edge on one interval."""
+        self.good[r], self.v_good[r], self.mu_good[r], self.s_good[r] = at, v, mu, s
+        moved = r[probed]
+        self.bad_i[moved] += np.sign(self.bad_i[moved] - self.ok_i[moved])
+        past = (self.bad_i[moved] < 0) | (self.bad_i[moved] >= self.x.shape[1])
+        self.ended[moved[past]] = True
+        on = moved[~past]
+        self.bad[on], self.beyond[on] = self.x[self.line[on], self.bad_i[on]], self.status[self.line[on], self.bad_i[on]]
+
+    def lost_at(self, r, reached, v, mu, s, failed, why) -> None:
+        """The cycle, followed, was found up to ``reached`` and lost at ``failed`` (status ``why``)."""
+        self.good[r], self.v_good[r], self.mu_good[r], self.s_good[r] = reached, v, mu, s
+        self.bad[r], self.beyond[r], self.untested[r] = failed, why, False
+
+
+def approach(solve, which: np.ndarray, good: np.ndarray, target: np.ndarray, v_good: np.ndarray, mu_good: np.ndarray,
+             s_good: np.ndarray):
+    """Follow the cycles of rows ``which`` from ``good`` towards ``target`` in
+    :data:`APPROACH_STEPS` equal steps, each solve from the last found cycle
+    (``solve(at, which, guess)``).
+
+    Returns ``(reached, v_reached, mu_reached, s_reached, failed, status)`` per
+    row: the last value where the cycle was found, its point, multipliers and
+    sequence codes, the first value where it was not (NaN if the target itself
+    was reached) and that failure's status.
+    """
+    reached, v_reached, mu_reached, s_reached = good.copy(), v_good.copy(), mu_good.copy(), s_good.copy()
+    failed = target.copy()
+    why = np.full(len(which), Status.NO_CONVERGENCE, np.int8)
+    going = np.ones(len(which), bool)
+    for j in range(1, APPROACH_STEPS + 1):
+        idx = np.flatnonzero(going)
+        if idx.size == 0:
+            break
+        at = good[idx] + (target[idx] - good[idx]) * j / APPROACH_STEPS
+        st, v_at, mu_at, s_at = solve(at, which[idx], v_reached[idx])
+        ok = st == Status.OK
+        reached[idx[ok]], v_reached[idx[ok]], mu_reached[idx[ok]], s_reached[idx[ok]] = at[ok], v_at[ok], mu_at[ok], s_at[ok]
+        failed[idx[~ok]], why[idx[~ok]] = at[~ok], st[~ok]
+        going[idx[~ok]] = False
+    failed[going] = np.nan  # every step found, the target too: no failure on this side
+    return reached, v_reached, mu_reached, s_reached, failed, why

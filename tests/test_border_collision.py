@@ -1,0 +1,151 @@
+"""A change of the gaits' event sequence is located as a border collision, and a
+stability test function that changes sign by a jump there is not called a fold
+(jaxwalk.bifurcation.locate with ``sequences``; jaxwalk.border_collision).
+
+A synthetic re-solve stands in for Newton: on the line ``gamma`` the gait's
+step takes sequence ``A`` below ``C`` and ``B`` from ``C`` on; its real
+multiplier is 0.5 below ``C`` and jumps to ``0.5 + SLOPE (gamma - C) + JUMP``
+above, so with ``JUMP`` past 0.5 the fold test changes sign at ``C`` by a jump,
+and with a smaller jump it crosses +1 continuously at ``D`` beyond ``C``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from jaxwalk import bifurcation
+from jaxwalk.bifurcation import BifurcationOptions, Kind, locate
+from jaxwalk.models import get_model
+from jaxwalk.status import Status
+
+C, SLOPE = 0.43, 2.0
+A, B = 6 * 2**52 + 0x012345, 7 * 2**52 + 0x0123E45  # two sequence codes (B: one more event)
+
+
+def _fake(jump, fail_far_from=None):
+    """A re-solve; ``fail_far_from``: Newton fails from a start farther than this from its target."""
+
+    def evaluate(model, k, solver, newton, params, v0):
+        x = np.asarray(params["gamma"], np.float64)
+        mu = np.where(x < C, 0.5, 0.5 + jump + SLOPE * (x - C))
+        status = np.full(len(x), Status.OK, np.int8)
+        if fail_far_from is not None:
+            status[np.abs(np.asarray(v0)[:, 0] - x) > fail_far_from] = Status.NO_CONVERGENCE
+        v = np.stack([x, np.zeros_like(x)], axis=1)
+        return status, v, np.stack([mu, np.full_like(mu, 0.1)], axis=1).astype(np.complex128), \
+            np.where(x < C, A, B)[:, None].astype(np.int64)
+
+    return evaluate
+
+
+def _grid(x_points, jump):
+    x = np.array([x_points], np.float64)
+    status = np.zeros(x.shape, np.int8)
+    _, v, mu, seq = _fake(jump)(None, 1, None, None, {"gamma": x[0]}, np.zeros((x.shape[1], 2)))
+    return x, status, v[None], mu[None], seq[None, :, 0]
+
+
+def test_a_multiplier_that_jumps_across_one_is_a_border_collision_not_a_fold(monkeypatch):
+    monkeypatch.setattr(bifurcation, "_evaluate", _fake(jump=0.8))
+    x, status, v, mu, seq = _grid([0.0, 1.0], 0.8)
+    found = locate(get_model("simplest"), {"gamma": x}, "gamma", status, v, mu, sequences=seq,
+                   options=BifurcationOptions(tol=1e-7))
+    assert found.kind.tolist() == [Kind.BORDER_COLLISION] and found.status.tolist() == [Status.OK]
+    assert abs(found.parameter[0] - C) <= 1e-7
+    assert found.sequence.tolist() == [A] and found.sequence_beyond.tolist() == [B]
+    assert found.jumps.tolist() == [1]  # the fold test's sign, by the jump
+    assert found.multipliers[0, 0].real == pytest.approx(0.5) and found.multipliers_beyond[0, 0].real > 1.29
+
+
+def test_without_sequences_the_same_jump_reads_as_a_fold(monkeypatch):
+    """What the sequences prevent: the regula falsi closes on the jump and names a fold."""
+    monkeypatch.setattr(bifurcation, "_evaluate", _fake(jump=0.8))
+    x, status, v, mu, _ = _grid([0.0, 1.0], 0.8)
+    found = locate(get_model("simplest"), {"gamma": x}, "gamma", status, v, mu, options=BifurcationOptions(tol=1e-7))
+    assert found.kind.tolist() == [Kind.FOLD] and abs(found.parameter[0] - C) < 1e-6
+    assert abs(found.multipliers[0, 0] - 1.0) > 0.2  # no multiplier near +1 there
+
+
+def test_a_continuous_crossing_beyond_the_collision_is_located_on_its_own_side(monkeypatch):
+    jump = 0.2  # from 0.7 at C, through +1 at D
+    d = C + (0.5 - jump) / SLOPE
+    monkeypatch.setattr(bifurcation, "_evaluate", _fake(jump))
+    x, status, v, mu, seq = _grid([0.0, 1.0], jump)
+    found = locate(get_model("simplest"), {"gamma": x}, "gamma", status, v, mu, sequences=seq,
+                   options=BifurcationOptions(tol=1e-8))
+    assert found.kind.tolist() == [Kind.BORDER_COLLISION, Kind.FOLD]
+    assert abs(found.parameter[0] - C) <= 1e-8 and found.jumps[0] == 0
+    assert abs(found.parameter[1] - d) <= 1e-8 and found.sequence[1] == B
+    assert abs(found.multipliers[1, 0] - 1.0) < 1e-6
+
+
+def test_a_failed_midpoint_solve_is_retried_from_the_nearer_gait(monkeypatch):
+    """Newton fails from the interpolated start (farther than 0.6 from the
+    midpoint, as when the bracket's ends are far apart) and succeeds from the
+    nearer end: the collision is still located, nothing reported lost."""
+    monkeypatch.setattr(bifurcation, "_evaluate", _fake(jump=0.8, fail_far_from=0.6))
+    x = np.array([[0.0, 1.0]])
+    v = np.array([[[0.0, 0.0], [5.0, 0.0]]])  # the upper gait's point far from the line's (a stand-in)
+    mu = np.array([[[0.5, 0.1], [1.3, 0.1]]], np.complex128)
+    found = locate(get_model("simplest"), {"gamma": x}, "gamma", np.zeros((1, 2), np.int8), v, mu,
+                   sequences=np.array([[A, B]]), options=BifurcationOptions(tol=1e-6))
+    assert found.kind.tolist() == [Kind.BORDER_COLLISION] and found.status.tolist() == [Status.OK]
+    assert abs(found.parameter[0] - C) <= 1e-6
+
+
+def test_the_same_sequence_everywhere_changes_nothing(monkeypatch):
+    """With one sequence on the line the table is the one located without sequences."""
+    def same(model, k, solver, newton, params, v0):
+        x = np.asarray(params["gamma"], np.float64)
+        mu = 0.5 + x  # through +1 at 0.5
+        return (np.zeros(len(x), np.int8), np.stack([x, x], 1), np.stack([mu, 0.1 + 0 * x], 1).astype(np.complex128),
+                np.full((len(x), 1), A, np.int64))
+
+    monkeypatch.setattr(bifurcation, "_evaluate", same)
+    x = np.array([[0.0, 0.4, 0.8]])
+    _, v, mu, seq = same(None, 1, None, None, {"gamma": x[0]}, None)
+    args = (get_model("simplest"), {"gamma": x}, "gamma", np.zeros((1, 3), np.int8), v[None], mu[None])
+    with_seq = locate(*args, sequences=seq[None, :, 0])
+    without = locate(*args)
+    assert with_seq.kind.tolist() == without.kind.tolist() == [Kind.FOLD]
+    assert with_seq.parameter[0] == without.parameter[0] and abs(with_seq.parameter[0] - 0.5) <= 1e-6
+
+
+class _Bar:
+    def __init__(self):
+        self.total, self.n = 0, 0
+
+    def update(self, k):
+        self.n += k
+
+    def refresh(self):
+        pass
+
+
+def test_between_the_last_grid_gait_and_a_lost_gaits_edge_both_are_located(monkeypatch):
+    """The gait is lost at ``EDGE`` (a step fails beyond); between the last grid
+    point that has it and the edge its sequence changes at ``C`` and, beyond
+    that, a multiplier passes through -1: the edge, the collision and
+    the flip are all located, though no two grid points bracket the last two."""
+    edge, flip = 0.6, C + 0.1
+
+    def evaluate(model, k, solver, newton, params, v0):
+        x = np.asarray(params["gamma"], np.float64)
+        mu = np.where(x < C, 0.5, -0.8 - 2.0 * (x - C))  # through -1 at C + 0.1
+        status = np.where(x < edge, Status.OK, Status.SCUFFING).astype(np.int8)
+        v = np.stack([x, np.zeros_like(x)], axis=1)
+        return status, v, np.stack([mu, np.full_like(mu, 0.1)], 1).astype(np.complex128), np.where(x < C, A, B)[:, None]
+
+    monkeypatch.setattr(bifurcation, "_evaluate", evaluate)
+    x = np.array([[0.0, 0.4, 0.8]])
+    status = np.array([[Status.OK, Status.OK, Status.SCUFFING]], np.int8)
+    _, v, mu, seq = evaluate(None, 1, None, None, {"gamma": x[0]}, None)
+    bar = _Bar()
+    found = locate(get_model("simplest"), {"gamma": x}, "gamma", status, v[None], mu[None], sequences=seq[None, :, 0],
+                   options=BifurcationOptions(tol=1e-7), progress=bar)
+    assert found.kind.tolist() == [Kind.BORDER_COLLISION, Kind.FLIP, Kind.GRAZING]
+    assert np.allclose(found.parameter, [C, flip, edge], atol=1e-7)
+    assert found.jumps[0] == 0  # the flip test keeps its sign across the collision (0.5 -> -0.8)
+    assert found.sequence.tolist() == [A, B, B] and found.beyond[2] == Status.SCUFFING
+    assert bar.n == bar.total
