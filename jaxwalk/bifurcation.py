@@ -52,7 +52,7 @@ from jaxwalk import compiling
 from jaxwalk.attractor import AttractorOptions, find_cycle, minimal_period, spectrum
 from jaxwalk.batching import Rows, over_rows, run_chunks, sub_batch_size
 from jaxwalk.bifurcation_edges import shrink_edges
-from jaxwalk.border_collision import jumps, shrink_collisions
+from jaxwalk.border_collision import jumps, locate_changes
 from jaxwalk.gait import NewtonOptions
 from jaxwalk.status import Status
 from jaxwalk.step import SolverOptions
@@ -241,51 +241,87 @@ def locate(
         period: k, the map's number of steps.
         progress: ``None``, or a progress bar with tqdm's ``total``, ``update(n)``
             and ``refresh()``: its total is set to the rounds of batched solves
-            planned (the edges' and collisions' bisections exactly, the sign
-            changes' regula falsi at most ``options.max_iter``, lowered when
-            they end sooner) and advanced by one per round.
-        sequences: ``(n_lines, n)`` (period 1) or ``(n_lines, n, k)`` int64 sequence
-            codes of the cycles' steps (:mod:`jaxwalk.event_log`), or ``None``
-            (not known: no border collision is located, and sign changes are
-            taken to be continuous).
+            planned (the grid's edges' and collisions' bisections, the sign
+            changes' regula falsi at most ``options.max_iter``; lowered when
+            they end sooner, raised for what is found between a line's last
+            grid gait and its edge) and advanced by one per round.
+        sequences: ``(n_lines, n)`` int64 sequence codes of the period-1 gaits'
+            steps (:mod:`jaxwalk.event_log`; ``period`` 1 only), or ``None``
+            (not known: no border collision is located, and every sign change
+            is taken to be a continuous crossing).
+
+    Lines may run either way in the continuation parameter (rows report its values).
 
     Returns:
         :class:`Bifurcations`, rows ordered by line then parameter.
     """
-    status = np.asarray(status)
+    status, v, multipliers, lines, sequences, known = _increasing(status, v, multipliers, lines, axis, sequences, period)
     n_lines, n = status.shape
-    x = np.asarray(lines[axis], np.float64)
-    known = sequences is not None
-    seq = np.asarray(sequences, np.int64).reshape(n_lines, n, -1) if known else np.zeros((n_lines, n, period), np.int64)
-    seq = np.where((status == Status.OK)[..., None], seq, 0)
-    tests = indicators(multipliers)
-    gait = lambda line, j: {"x": x[line, j], "v": v[line, j], "mu": multipliers[line, j], "s": seq[line, j]}
-    smooth, edge_rows, changes = [], [], []  # ([line, i, lo, hi]), (line, found, lost), ([line, i, lo, hi])
+    x = lines[axis]
+
+    def solve(at, line, i, guess):
+        st, v_, mu_, s_ = _evaluate(model, period, solver, newton, _params_at(lines, axis, line, at, i), guess)
+        return st, v_, mu_, (s_ if known else np.zeros_like(s_))  # codes not known: every gait one sequence
+
+    gait = lambda line, j: {"x": x[line, j], "v": v[line, j], "mu": multipliers[line, j], "s": sequences[line, j]}
+    smooth, edge_rows, changes = [], [], []  # (line, i, lo, hi [, skip]), (line, found, lost), (line, i, lo, hi)
     for line, i in ((line, i) for line in range(n_lines) for i in range(n - 1)):
         ok_a, ok_b = status[line, i] == Status.OK, status[line, i + 1] == Status.OK
         if ok_a and ok_b:
-            (changes if np.any(seq[line, i] != seq[line, i + 1]) else smooth).append((line, i, gait(line, i), gait(line, i + 1)))
+            (changes if np.any(sequences[line, i] != sequences[line, i + 1]) else smooth).append(
+                (line, i, gait(line, i), gait(line, i + 1)))
         elif ok_a != ok_b:
             edge_rows.append((line, i, i + 1) if ok_a else (line, i + 1, i))  # (line, found, lost)
     rounds = _Rounds(progress, smooth or changes or edge_rows, edge_rows, changes, x, options)
-    solve = lambda at, line, i, guess: _evaluate(model, period, solver, newton, _params_at(lines, axis, line, at, i), guess)
-    edges = shrink_edges(solve, edge_rows, x, status, v, multipliers, seq, options.tol, rounds)
-    for e in edges:  # between the line's last grid gait and the edge's last gait: more to locate
-        found = gait(e["line"], e["i"])
-        last = {"x": e["good"], "v": e["v"], "mu": e["multipliers"], "s": e["sequences"]}
-        lo, hi = (found, last) if found["x"] <= last["x"] else (last, found)
-        (changes if np.any(lo["s"] != hi["s"]) else smooth).append((e["line"], e["i"], lo, hi))
-    brackets = lambda line, i, lo, hi: {"line": line, "i": i, "lo": lo, "hi": hi}
-    collisions = shrink_collisions(solve, [brackets(*c) for c in changes], options.tol, rounds)
-    for (_, _, lo, hi), c in zip(changes, collisions):  # either side of a located collision is one sequence's
-        if c["status"] == Status.OK:
-            smooth.append((c["line"], c["i"], lo, {"x": c["lo"], "v": c["v_lo"], "mu": c["multipliers_lo"], "s": c["sequences_lo"]}))
-            smooth.append((c["line"], c["i"], {"x": c["hi"], "v": c["v_hi"], "mu": c["multipliers_hi"], "s": c["sequences_hi"]}, hi))
-    rows = _shrink_signs(solve, [b for s_ in smooth for b in _sign_brackets(*s_)], options, rounds)
-    rows += [_collision_row(c) for c in collisions]
-    rows += [_edge_row(e, options) for e in edges]
-    rows.sort(key=lambda r: (r["line"], r["parameter"]))
-    return _table(rows, v.shape[-1], period)
+    edges, segments = shrink_edges(solve, edge_rows, x, status, v, multipliers, sequences, options.tol, rounds)
+    edges = [_edge_row(e, options) for e in edges]
+    for line, i, a, b, edge in segments:  # stretches the grid does not bracket: more to locate there
+        lo, hi = (a, b) if a["x"] <= b["x"] else (b, a)
+        # Next to a fold edge the gait turns back: the fold is the edge itself, not a crossing to locate again.
+        skip = (Kind.FOLD,) if edge is not None and edges[edge]["kind"] == Kind.FOLD else ()
+        (changes if np.any(lo["s"] != hi["s"]) else smooth).append((line, i, lo, hi, skip))
+    collisions, between = locate_changes(solve, [c[:4] for c in changes], options.tol, rounds)
+    brackets = [b for seg in smooth + between for b in _sign_brackets(*seg)]
+    rows = _shrink_signs(solve, brackets, options, rounds) + [_collision_row(c) for c in collisions] + edges
+    return _table(_distinct(rows, options.tol), v.shape[-1], period)
+
+
+def _distinct(rows: list[dict], tol: float) -> list[dict]:
+    """Rows by line then parameter, one of each kind per place: two edges followed
+    through the same grid points (from either side of a point the line lost)
+    close on the same point and search the same stretches."""
+    rows = sorted(rows, key=lambda r: (r["line"], r["parameter"]))
+    out: list[dict] = []
+    for r in rows:
+        same = [o for o in out[-4:] if o["line"] == r["line"] and o["kind"] == r["kind"]
+                and abs(o["parameter"] - r["parameter"]) <= 2 * tol]
+        if not same:
+            out.append(r)
+    return out
+
+
+def _increasing(status, v, multipliers, lines, axis, sequences, period):
+    """The inputs with every line's points in increasing order of the continuation
+    parameter (a line given decreasing is reversed; rows report parameters, not
+    indices), as float arrays; the sequence codes ``(n_lines, n, k)`` (0 where no
+    gait, all 0 where not ``known``)."""
+    status = np.asarray(status)
+    x = np.asarray(lines[axis], np.float64)
+    flip = (x[:, -1] < x[:, 0])[:, None]
+    order = lambda a: np.where(flip.reshape(flip.shape + (1,) * (np.ndim(a) - 2)), np.asarray(a)[:, ::-1], np.asarray(a))
+    known = sequences is not None
+    if known:
+        if period != 1:
+            raise ValueError("sequence codes are compared for period-1 gaits only (period %d given)" % period)
+        if not np.issubdtype(np.asarray(sequences).dtype, np.integer):
+            raise ValueError(f"sequence codes must be integers (int64), got {np.asarray(sequences).dtype}")
+        seq = np.asarray(sequences, np.int64).reshape(status.shape + (1,))
+    else:
+        seq = np.zeros(status.shape + (period,), np.int64)
+    status = order(status)
+    seq = np.where((status == Status.OK)[..., None], order(seq), 0)
+    lines = {k: order(np.asarray(val, np.float64)) for k, val in lines.items()}
+    return status, order(v), order(multipliers), lines, seq, known
 
 
 def _table(rows: list[dict], n_v: int, period: int) -> Bifurcations:
@@ -321,13 +357,13 @@ def _edge_row(r: dict, options: BifurcationOptions) -> dict:
     return {**r, "kind": kind, "status": Status.OK}
 
 
-def _sign_brackets(line, i, lo: dict, hi: dict) -> list[dict]:
+def _sign_brackets(line, i, lo: dict, hi: dict, skip: tuple = ()) -> list[dict]:
     """The test functions whose sign differs between two gaits of one sequence
-    (``lo``, ``hi``: ``x``, ``v``, ``mu``, ``s``): one bracket each."""
+    (``lo``, ``hi``: ``x``, ``v``, ``mu``, ``s``): one bracket each (none of the kinds in ``skip``)."""
     t_lo, t_hi = indicators(lo["mu"]), indicators(hi["mu"])
     out = []
     for kind, column in ((Kind.FOLD, 0), (Kind.FLIP, 1), (Kind.NEIMARK_SACKER, 2)):
-        if np.sign(t_lo[column]) * np.sign(t_hi[column]) < 0:
+        if kind not in skip and np.sign(t_lo[column]) * np.sign(t_hi[column]) < 0:
             out.append({"kind": kind, "column": column, "line": line, "i": i, "lo": lo["x"], "hi": hi["x"],
                         "f_lo": t_lo[column], "f_hi": t_hi[column], "v_lo": lo["v"], "v_hi": hi["v"], "sequences": lo["s"]})
     return out

@@ -18,7 +18,7 @@ from jaxwalk.status import Status
 APPROACH_STEPS = 4
 
 
-def shrink_edges(solve, rows, x: np.ndarray, status, v, multipliers, sequences, tol: float, rounds) -> list[dict]:
+def shrink_edges(solve, rows, x: np.ndarray, status, v, multipliers, sequences, tol: float, rounds):
     """Bisection on "the cycle is followed there" at each edge of a line's gaits.
 
     ``rows``: ``(line, found, lost)`` grid indices of each edge; ``x`` the
@@ -37,14 +37,21 @@ def shrink_edges(solve, rows, x: np.ndarray, status, v, multipliers, sequences, 
     cycle is found there the edge moves on to the next interval (or, past the
     line's last point, there is none).
 
-    Returns one dict per edge still inside its line: ``parameter`` (the
-    bracket's midpoint), ``line``, ``good`` (the last parameter where the
-    cycle was found), ``v``, ``multipliers`` and ``sequences`` of that cycle,
-    ``i`` (the grid point it was followed from, the last found on the line),
-    ``beyond`` (the failure's status); ``kind`` is the caller's to decide.
+    Returns ``(edges, segments)``. ``edges``: one dict per edge still inside
+    its line: ``parameter`` (the bracket's midpoint), ``line``, ``v``,
+    ``multipliers`` and ``sequences`` of the last cycle found, ``beyond`` (the
+    failure's status); ``kind`` is the caller's to decide. ``segments``:
+    ``(line, i, a, b)`` for each stretch of a line between two of the cycles
+    followed that no two found grid gaits bracket (from the last found grid
+    point, or a grid point the edge moved through, to the next one or to the
+    last cycle found; ``a``, ``b`` gaits as dicts ``x``, ``v``, ``mu``, ``s``
+    in the order walked; ``i`` a grid index of the line, for its other
+    parameters; ``edge``: the index in ``edges`` of the edge it ends at, or
+    ``None``): a bifurcation there has no grid bracket of its own.
     """
     if not rows:
-        return []
+        rounds.edges_done()
+        return [], []
     e = _Edges.start(rows, x, status, v, multipliers, sequences)
     while True:
         narrow = np.abs(e.bad - e.good) <= 2 * tol
@@ -67,9 +74,17 @@ def shrink_edges(solve, rows, x: np.ndarray, status, v, multipliers, sequences, 
         which = np.searchsorted(lost, k)  # rows of `lost` that the approach confirmed
         e.lost_at(idx[k], reached[which], v_r[which], mu_r[which], s_r[which], failed[which], why[which])
     rounds.edges_done()
-    return [{"parameter": 0.5 * (e.good[r] + e.bad[r]), "line": e.line[r], "v": e.v_good[r], "multipliers": e.mu_good[r],
-             "sequences": e.s_good[r], "beyond": e.beyond[r], "good": e.good[r], "i": e.ok_i[r]}
-            for r in np.flatnonzero(~e.ended)]
+    edges, segments = [], list(e.crossed)
+    for r in range(len(rows)):
+        last = {"x": e.good[r], "v": e.v_good[r], "mu": e.mu_good[r], "s": e.s_good[r]}
+        edge = None
+        if not e.ended[r]:
+            edge = len(edges)
+            edges.append({"parameter": 0.5 * (e.good[r] + e.bad[r]), "line": e.line[r], "v": e.v_good[r],
+                          "multipliers": e.mu_good[r], "sequences": e.s_good[r], "beyond": e.beyond[r]})
+        if e.anchor[r]["x"] != last["x"]:
+            segments.append((e.line[r], e.ok_i[r], e.anchor[r], last, edge))
+    return edges, segments
 
 
 @dataclasses.dataclass
@@ -78,7 +93,11 @@ class _Edges:
     cycle found there: ``v_good``, ``mu_good``, its sequence codes ``s_good``)
     and ``bad`` (the failure ``beyond``; ``untested`` while it is the grid point
     as the line's continuation left it), on line ``line`` between grid points
-    ``ok_i`` and ``bad_i``; ``ended``: the cycle was followed past the line's last point."""
+    ``ok_i`` and ``bad_i``; ``ended``: the cycle was followed past the line's
+    last point. ``anchor``: the last grid point where the cycle is known (the
+    line's last found one, then each one the edge moved through, as a gait
+    dict); ``crossed``: segments between anchors that the grid's gaits do not
+    bracket (:func:`shrink_edges`)."""
 
     line: np.ndarray
     ok_i: np.ndarray
@@ -93,17 +112,29 @@ class _Edges:
     beyond: np.ndarray
     untested: np.ndarray
     ended: np.ndarray
+    anchor: list
+    anchor_i: np.ndarray
+    crossed: list
 
     @classmethod
     def start(cls, rows, x, status, v, multipliers, sequences) -> "_Edges":
         line, ok_i, bad_i = (np.array([r[k] for r in rows]) for k in range(3))
+        mu, seq = np.asarray(multipliers), np.asarray(sequences)
+        anchor = [{"x": x[l_, i_], "v": v[l_, i_], "mu": mu[l_, i_], "s": seq[l_, i_]} for l_, i_ in zip(line, ok_i)]
         return cls(line, ok_i, bad_i, x, status, x[line, ok_i].copy(), x[line, bad_i].copy(), v[line, ok_i].copy(),
-                   np.asarray(multipliers)[line, ok_i].copy(), np.asarray(sequences)[line, ok_i].copy(),
-                   status[line, bad_i].astype(np.int8), np.ones(len(rows), bool), np.zeros(len(rows), bool))
+                   mu[line, ok_i].copy(), seq[line, ok_i].copy(), status[line, bad_i].astype(np.int8),
+                   np.ones(len(rows), bool), np.zeros(len(rows), bool), anchor, ok_i.copy(), [])
 
     def found_at(self, r, at, v, mu, s, probed) -> None:
         """The cycle was found at ``at``; a probed grid point moves the edge on one interval."""
         self.good[r], self.v_good[r], self.mu_good[r], self.s_good[r] = at, v, mu, s
+        for j in np.flatnonzero(probed):  # the grid point is the new anchor; the stretch to it, if the grid has no bracket
+            row, bad_i = r[j], self.bad_i[r[j]]
+            gait = {"x": at[j], "v": v[j], "mu": mu[j], "s": s[j]}
+            bracketed = self.status[self.line[row], self.anchor_i[row]] == Status.OK and self.status[self.line[row], bad_i] == Status.OK
+            if not bracketed:
+                self.crossed.append((self.line[row], self.ok_i[row], self.anchor[row], gait, None))
+            self.anchor[row], self.anchor_i[row] = gait, bad_i
         moved = r[probed]
         self.bad_i[moved] += np.sign(self.bad_i[moved] - self.ok_i[moved])
         past = (self.bad_i[moved] < 0) | (self.bad_i[moved] >= self.x.shape[1])

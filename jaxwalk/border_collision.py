@@ -16,9 +16,9 @@ the jump is reported as what it is.
 
 :func:`shrink_collisions` bisects on "the gait's sequence is the one at the
 bracket's lower end", re-solving the gait at each midpoint (from the bracket's
-ends interpolated; where Newton fails from there, once more from the nearer
-end's gait, since Newton on a piecewise-smooth map can cycle across the
-border). Its result: the collision's parameter to ``tol``, the gaits and
+ends interpolated; where Newton fails from there, again from the lower end's
+gait and then from the upper end's, since Newton on a piecewise-smooth map
+can cycle across the border). Its result: the collision's parameter to ``tol``, the gaits and
 multipliers on both sides, and which test functions jump in sign across it.
 """
 
@@ -27,6 +27,41 @@ from __future__ import annotations
 import numpy as np
 
 from jaxwalk.status import Status
+
+
+#: Sequence changes located one after the other inside one bracket (A, then B, then C, ...).
+MAX_PASSES = 8
+
+
+def locate_changes(solve, changes: list[tuple], tol: float, rounds) -> tuple[list[dict], list[tuple]]:
+    """Every sequence change inside the brackets ``changes``, ``(line, i, lo, hi)``
+    (gait dicts ``x``, ``v``, ``mu``, ``s`` at the ends, ``lo["x"] < hi["x"]``,
+    their sequences different).
+
+    Each pass locates, in every bracket, where the lower end's sequence ends
+    (:func:`shrink_collisions`); the stretch from there to the upper end is a
+    new bracket if its two ends still differ (a third sequence), up to
+    :data:`MAX_PASSES` passes. Returns ``(collisions, smooth)``: the located
+    collisions (:func:`shrink_collisions`'s dicts) and the stretches of one
+    sequence between them, ``(line, i, lo, hi)``, where a test function's sign
+    change is a multiplier's continuous crossing.
+    """
+    collisions, smooth, pending = [], [], list(changes)
+    for _ in range(MAX_PASSES):
+        if not pending:
+            break
+        found = shrink_collisions(solve, [{"line": c[0], "i": c[1], "lo": c[2], "hi": c[3]} for c in pending], tol, rounds)
+        following = []
+        for (line, i, lo, hi), c in zip(pending, found):
+            collisions.append(c)
+            below = {"x": c["lo"], "v": c["v_lo"], "mu": c["multipliers_lo"], "s": c["sequences_lo"]}
+            above = {"x": c["hi"], "v": c["v_hi"], "mu": c["multipliers_hi"], "s": c["sequences_hi"]}
+            if below["x"] > lo["x"]:
+                smooth.append((line, i, lo, below))
+            if above["x"] < hi["x"]:
+                (following if np.any(above["s"] != hi["s"]) else smooth).append((line, i, above, hi))
+        pending = following
+    return collisions, smooth
 
 
 def shrink_collisions(solve, brackets: list[dict], tol: float, rounds) -> list[dict]:
@@ -79,16 +114,13 @@ def shrink_collisions(solve, brackets: list[dict], tol: float, rounds) -> list[d
 
 
 def _retry_from_ends(solve, st, v_m, mu_m, s_m, mid, line, i, lo, hi, active):
-    """Re-solve the failed midpoints once from the nearer end's gait (the lower one on a tie)."""
-    again = np.flatnonzero(st != Status.OK)
-    if again.size == 0:
-        return st, v_m, mu_m, s_m
-    rows = active[again]
-    nearer_lo = (mid[again] - lo["x"][rows]) <= (hi["x"][rows] - mid[again])
-    guess = np.where(nearer_lo[:, None], lo["v"][rows], hi["v"][rows])
-    st2, v2, mu2, s2 = solve(mid[again], line[again], i[again], guess)
+    """Re-solve the failed midpoints from the lower end's gait, then those still failing from the upper end's."""
     st, v_m, mu_m, s_m = st.copy(), v_m.copy(), mu_m.copy(), s_m.copy()
-    st[again], v_m[again], mu_m[again], s_m[again] = st2, v2, mu2, s2
+    for end in (lo, hi):
+        again = np.flatnonzero(st != Status.OK)
+        if again.size == 0:
+            break
+        st[again], v_m[again], mu_m[again], s_m[again] = solve(mid[again], line[again], i[again], end["v"][active[again]])
     return st, v_m, mu_m, s_m
 
 

@@ -80,10 +80,10 @@ def test_a_continuous_crossing_beyond_the_collision_is_located_on_its_own_side(m
     assert abs(found.multipliers[1, 0] - 1.0) < 1e-6
 
 
-def test_a_failed_midpoint_solve_is_retried_from_the_nearer_gait(monkeypatch):
+def test_a_failed_midpoint_solve_is_retried_from_the_ends_gaits(monkeypatch):
     """Newton fails from the interpolated start (farther than 0.6 from the
     midpoint, as when the bracket's ends are far apart) and succeeds from the
-    nearer end: the collision is still located, nothing reported lost."""
+    lower end's gait: the collision is still located, nothing reported lost."""
     monkeypatch.setattr(bifurcation, "_evaluate", _fake(jump=0.8, fail_far_from=0.6))
     x = np.array([[0.0, 1.0]])
     v = np.array([[[0.0, 0.0], [5.0, 0.0]]])  # the upper gait's point far from the line's (a stand-in)
@@ -149,3 +149,75 @@ def test_between_the_last_grid_gait_and_a_lost_gaits_edge_both_are_located(monke
     assert found.jumps[0] == 0  # the flip test keeps its sign across the collision (0.5 -> -0.8)
     assert found.sequence.tolist() == [A, B, B] and found.beyond[2] == Status.SCUFFING
     assert bar.n == bar.total
+
+
+def _edge_fake(status_at, seq_at, mu_at, reach=None):
+    """A re-solve from rules of ``x``: status, sequence code, first multiplier
+    (``reach``: Newton fails from a start farther than this from its target)."""
+
+    def evaluate(model, k, solver, newton, params, v0):
+        x = np.asarray(params["gamma"], np.float64)
+        status = status_at(x).astype(np.int8)
+        if reach is not None and v0 is not None:
+            status[(status == Status.OK) & (np.abs(np.asarray(v0)[:, 0] - x) > reach)] = Status.NO_CONVERGENCE
+        mu = np.stack([mu_at(x), np.full_like(x, 0.1)], 1).astype(np.complex128)
+        return status, np.stack([x, np.zeros_like(x)], 1), mu, seq_at(x).astype(np.int64)[:, None]
+
+    return evaluate
+
+
+def _run(monkeypatch, evaluate, x, status=None, sequences=True, tol=1e-7):
+    monkeypatch.setattr(bifurcation, "_evaluate", evaluate)
+    x = np.asarray(x, np.float64)[None]
+    st, v, mu, seq = evaluate(None, 1, None, None, {"gamma": x[0]}, None)
+    status = st[None] if status is None else np.asarray(status, np.int8)[None]
+    bar = _Bar()
+    found = locate(get_model("simplest"), {"gamma": x}, "gamma", status, v[None], mu[None],
+                   sequences=seq[None, :, 0] if sequences else None, options=BifurcationOptions(tol=tol), progress=bar)
+    assert bar.n == bar.total
+    return found
+
+
+def test_withheld_sequences_find_no_collision_even_where_the_solver_logs_them(monkeypatch):
+    evaluate = _edge_fake(lambda x: np.where(x < 0.6, Status.OK, Status.SCUFFING), lambda x: np.where(x < C, A, B),
+                          lambda x: np.where(x < C, 0.5, -0.8 - 2.0 * (x - C)))
+    found = _run(monkeypatch, evaluate, [0.0, 0.4, 0.8], sequences=False)
+    assert found.kind.tolist() == [Kind.FLIP, Kind.GRAZING] and found.sequence.tolist() == [0, 0]
+
+
+def test_a_line_given_in_decreasing_order_is_located_the_same(monkeypatch):
+    evaluate = _fake(jump=0.8)
+    up, down = _run(monkeypatch, evaluate, [0.0, 1.0]), _run(monkeypatch, evaluate, [1.0, 0.0])
+    assert up.kind.tolist() == down.kind.tolist() == [Kind.BORDER_COLLISION]
+    assert abs(down.parameter[0] - C) <= 1e-7 and down.sequence.tolist() == [A] and down.sequence_beyond.tolist() == [B]
+
+
+def test_three_sequences_between_two_grid_points_give_two_collisions(monkeypatch):
+    third = 9 * 2**52 + 1
+    evaluate = _edge_fake(lambda x: np.full(len(x), Status.OK), lambda x: np.select([x < C, x < 0.7], [A, B], third),
+                          lambda x: 0.5 + 0 * x)
+    found = _run(monkeypatch, evaluate, [0.0, 1.0])
+    assert found.kind.tolist() == [Kind.BORDER_COLLISION] * 2
+    assert np.allclose(found.parameter, [C, 0.7], atol=1e-7)
+    assert found.sequence.tolist() == [A, B] and found.sequence_beyond.tolist() == [B, third]
+
+
+def test_a_sign_bracket_that_meets_another_sequence_inside_is_not_located(monkeypatch):
+    """Both grid ends take sequence A, the fold test changes sign between them
+    (a linear one: the secant's first trial is its root, 0.5), and the gaits
+    just below 0.5 take B: the bracket ends no_convergence, not a located fold."""
+    evaluate = _edge_fake(lambda x: np.full(len(x), Status.OK), lambda x: np.where((x > 0.45) & (x <= 0.5), B, A),
+                          lambda x: 0.5 + x)
+    found = _run(monkeypatch, evaluate, [0.0, 1.0])
+    assert found.kind.tolist() == [Kind.FOLD] and found.status.tolist() == [Status.NO_CONVERGENCE]
+
+
+def test_edges_followed_through_grid_points_report_each_point_once(monkeypatch):
+    """The line marked 0.3 failed (reached from afar); followed from 0, from
+    0.6 downwards and from 0.6 upwards, three edges walk through the same
+    stretches. The flip at 0.7 and the gait's end at 0.8 are reported once."""
+    evaluate = _edge_fake(lambda x: np.where(x < 0.8, Status.OK, Status.SCUFFING), lambda x: np.full(len(x), A),
+                          lambda x: 0.5 - 15.0 * np.maximum(x - 0.6, 0.0), reach=0.35)
+    found = _run(monkeypatch, evaluate, [0.0, 0.3, 0.6, 1.0], status=[Status.OK, Status.RUNNING, Status.OK, Status.SCUFFING])
+    assert found.kind.tolist() == [Kind.FLIP, Kind.GRAZING]
+    assert np.allclose(found.parameter, [0.7, 0.8], atol=1e-7)
