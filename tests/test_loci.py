@@ -127,3 +127,28 @@ bifurcations = true
     order = np.argsort(ds["bifurcation_m_h"].values[flips])
     np.testing.assert_array_equal(line.get_xdata(), ds["bifurcation_parameter"].values[flips][order])
     np.testing.assert_array_equal(line.get_ydata(), [9.0, 10.0, 11.0])
+
+
+def test_line_plots_mark_each_curves_own_located_points_at_their_largest_multiplier():
+    """On the lambda_max line figure (gamma on x, one curve per m_h), each row of
+    the table is marked on its own line's curve, in that curve's colour, at its
+    parameter and the largest modulus of its multipliers (zero here); a point not
+    located is hollow; a line plot over another axis marks nothing."""
+    from jaxwalk.plot import lines_figure
+
+    ds = synthetic(GRID_2D)
+    ds = with_table(ds, [(Kind.FLIP, 0.05, 1, 0), (Kind.BORDER_COLLISION, 0.07, 3, 0), (Kind.FOLD, 0.04, 3, Status.STALLED)])
+    fig = lines_figure(ds, "lambda_max", choose_layout(ds, "lines", x="gamma", y="m_h"))
+    marks = drawn(fig)
+    assert sorted(float(m.get_xdata()[0]) for m in marks) == [0.05, 0.07]
+    curves = {line.get_label(): line.get_color() for ax in fig.axes for line in ax.lines if line.get_label() in
+              {f"{float(v):.4g}" for v in ds["m_h"].values}}
+    by_x = {float(m.get_xdata()[0]): m.get_markerfacecolor() for m in marks}
+    assert by_x[0.05] == curves[f"{float(ds['m_h'].values[1]):.4g}"]
+    assert by_x[0.07] == curves[f"{float(ds['m_h'].values[3]):.4g}"]
+    hollow = [line for ax in fig.axes for line in ax.lines if line.get_gid() == "bifurcation-unlocated"]
+    assert [float(h.get_xdata()[0]) for h in hollow] == [0.04] and hollow[0].get_markerfacecolor() == "none"
+    assert {"flip (multiplier -1), located", "border collision (event order changes), located",
+            "bifurcation, not located to tolerance"} <= set(legend_texts(fig))
+    other = lines_figure(ds, "lambda_max", choose_layout(ds, "lines", x="m_h", y="gamma"))
+    assert drawn(other) == []

@@ -7,7 +7,9 @@ are filled markers, unstable ones (``lambda_max >= 1``) open markers. Failed
 points have no value, so they are marked on a thin strip under each panel,
 one row per curve in the curve's colour, with one marker shape per status,
 named in the legend. ``lambda_max`` figures draw the stability limit
-``lambda_max = 1``; a variable that asks for it is drawn on a logarithmic value
+``lambda_max = 1`` and, with a bifurcation table, mark the points located on
+each curve (folds, flips, border collisions, edges: at their parameter and
+largest multiplier modulus, :func:`jaxwalk.plot.loci.draw_on_curve`); a variable that asks for it is drawn on a logarithmic value
 axis (:mod:`jaxwalk.plot.scale`); a variable with an error estimate beside it
 (``<name>_error``: the MFPT's, the basin fraction's) gets error bars.
 """
@@ -19,6 +21,7 @@ import math
 import numpy as np
 import xarray as xr
 
+from jaxwalk.plot import loci
 from jaxwalk.plot.labels import (
     STABILITY_LIMIT, UNSTABLE, axis_label, figure_title, legend_columns, value_text, variable_label,
 )
@@ -83,9 +86,12 @@ def lines_figure(ds: xr.Dataset, name: str, layout: Layout):
     counts: dict[int, int] = {}
     unstable_any = False
     curve_handles: list = []
+    located, unlocated = set(), False
     for i, (ax, strip, (index, view)) in enumerate(zip(axes, strips, views)):
         drawn = _panel(ax, strip, view, name, layout, picked, colors, lam_known, counts)
         unstable_any |= drawn["unstable"]
+        located |= drawn["located"]
+        unlocated |= drawn["unlocated"]
         curve_handles = drawn["handles"]
         if name == "lambda_max":
             ax.axhline(1.0, color="k", linewidth=0.9, linestyle="--", gid=LIMIT_GID)
@@ -113,6 +119,7 @@ def lines_figure(ds: xr.Dataset, name: str, layout: Layout):
             title += f"\n({len(picked)} of {n_y} values)"
         fig.legend(handles=curve_handles, loc="outside right center", fontsize="small", title=title, title_fontsize="small")
     keys = _key_handles(ds, name, counts, unstable_any, lam_known, subset=len(picked) < n_y)
+    keys += loci.legend_markers(located, unlocated)
     if keys:
         fig.legend(handles=keys, loc="outside lower center", ncols=legend_columns(keys), fontsize="small", frameon=False)
     return fig
@@ -124,6 +131,7 @@ def _panel(ax, strip, view: xr.Dataset, name: str, layout: Layout, picked, color
     x = view[layout.x].values
     handles = []
     unstable_any = False
+    located, unlocated = set(), False  # bifurcation kinds marked on the curves
     for row, (j, color) in enumerate(zip(picked, colors)):
         curve = view.isel({layout.y: j}) if layout.y else view
         status = curve["status"].transpose(layout.x).values
@@ -141,6 +149,10 @@ def _panel(ax, strip, view: xr.Dataset, name: str, layout: Layout, picked, color
                 ax.plot(x[unstable], y[unstable], "o", markersize=4, markerfacecolor="white", markeredgecolor=color, linestyle="none")
         ax.plot(x[stable], y[stable], "o", markersize=3, color=color, linestyle="none")
         _error_bars(ax, curve, name, layout, ok, y, color)
+        if name == "lambda_max" and "bifurcation_kind" in curve:
+            k, u = loci.draw_on_curve(ax, curve, layout.x, color)
+            located |= k
+            unlocated |= u
         handles.append(line)
         for code in failure_codes(status):
             sel = status == code
@@ -149,7 +161,7 @@ def _panel(ax, strip, view: xr.Dataset, name: str, layout: Layout, picked, color
                 x[sel], np.full(sel.sum(), -row), status_marker(code), color=color, markersize=5,
                 linestyle="none", gid=f"failed:{code}",
             )
-    return {"handles": handles, "unstable": unstable_any}
+    return {"handles": handles, "unstable": unstable_any, "located": located, "unlocated": unlocated}
 
 
 def error_name(ds: xr.Dataset, name: str) -> str | None:

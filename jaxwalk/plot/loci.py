@@ -170,6 +170,51 @@ def draw(ax, ds: xr.Dataset, view: xr.Dataset, x: str, y: str) -> tuple[set[str]
     return kinds, bool(unlocated)
 
 
+def draw_on_curve(ax, curve: xr.Dataset, x: str, color) -> tuple[set[str], bool]:
+    """On a ``lambda_max`` line plot: the points located on the line ``curve`` shows
+    (every other grid axis at one value), each at its parameter and its largest
+    multiplier modulus there (a border collision's on its lower side), marked
+    by kind in the curve's colour (hollow: not located to tolerance). ``curve``:
+    the dataset at the curve's values of the other grid axes (its table
+    kept). Nothing when ``x`` is not the table's continuation axis. Returns the kinds drawn
+    and whether an unlocated point was drawn."""
+    if "bifurcation_kind" not in curve or f"bifurcation_{x}" in curve:
+        return set(), False  # no table, or x is not the continuation axis (the table has a column for the others)
+    table = curve[[v for v in curve.data_vars if curve[v].dims[:1] == ("bifurcation",)]]
+    keep = np.ones(table.sizes["bifurcation"], bool)
+    for d in curve.coords:  # the curve's own line: every other grid axis at its value
+        if d != x and f"bifurcation_{d}" in curve and curve[d].ndim == 0:
+            keep &= np.isclose(table[f"bifurcation_{d}"].values, float(curve[d].values), rtol=1e-12, atol=0.0)
+    table = table.isel(bifurcation=np.flatnonzero(keep))
+    names = kind_names(curve)
+    lam = np.max(np.hypot(table["bifurcation_multipliers_real"].values, table["bifurcation_multipliers_imag"].values),
+                 axis=-1, initial=0.0)
+    kinds, unlocated = set(), False
+    for j in range(table.sizes["bifurcation"]):
+        kind = names.get(int(table["bifurcation_kind"].values[j]), "")
+        located = int(table["bifurcation_status"].values[j]) == 0
+        c = float(table["bifurcation_parameter"].values[j])
+        ax.plot([c], [lam[j]], linestyle="none", marker=STYLES.get(kind, OTHER_STYLE)[1], markersize=6,
+                markerfacecolor=color if located else "none", markeredgecolor="black", markeredgewidth=0.8,
+                gid=LOCUS_GID if located else "bifurcation-unlocated", zorder=5)
+        kinds |= {kind} if located else set()
+        unlocated |= not located
+    return kinds, unlocated
+
+
+def legend_markers(kinds: set[str], unlocated: bool = False) -> list:
+    """Legend entries for :func:`draw_on_curve`'s markers (in the order of :data:`STYLES`)."""
+    from matplotlib.lines import Line2D
+
+    handles = [Line2D([], [], linestyle="none", marker=STYLES.get(k, OTHER_STYLE)[1], markerfacecolor="0.6",
+                      markeredgecolor="black", markersize=6, label=f"{STYLES.get(k, OTHER_STYLE)[2] or k}, located")
+               for k in sorted(kinds, key=lambda k: list(STYLES).index(k) if k in STYLES else len(STYLES))]
+    if unlocated:
+        handles.append(Line2D([], [], linestyle="none", marker="o", markerfacecolor="none", markeredgecolor="black",
+                              label="bifurcation, not located to tolerance"))
+    return handles
+
+
 def legend_handles(kinds: set[str], unlocated: bool = False) -> list:
     """One legend entry per kind drawn (in the order of :data:`STYLES`), and one
     for hollow markers when some point was not located to tolerance."""
