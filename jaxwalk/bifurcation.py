@@ -269,35 +269,26 @@ def locate(
         ok_a, ok_b = status[line, i] == Status.OK, status[line, i + 1] == Status.OK
         if ok_a and ok_b:
             (changes if np.any(sequences[line, i] != sequences[line, i + 1]) else smooth).append(
-                (line, i, gait(line, i), gait(line, i + 1)))
+                (line, i, gait(line, i), gait(line, i + 1), ()))
         elif ok_a != ok_b:
             edge_rows.append((line, i, i + 1) if ok_a else (line, i + 1, i))  # (line, found, lost)
     rounds = _Rounds(progress, smooth or changes or edge_rows, edge_rows, changes, x, options)
     edges, segments = shrink_edges(solve, edge_rows, x, status, v, multipliers, sequences, options.tol, rounds)
     edges = [_edge_row(e, options) for e in edges]
+    seen = set()
     for line, i, a, b, edge in segments:  # stretches the grid does not bracket: more to locate there
         lo, hi = (a, b) if a["x"] <= b["x"] else (b, a)
+        if (line, lo["x"], hi["x"]) in seen:  # walked from both sides of a grid point the line lost
+            continue
+        seen.add((line, lo["x"], hi["x"]))
         # Next to a fold edge the gait turns back: the fold is the edge itself, not a crossing to locate again.
         skip = (Kind.FOLD,) if edge is not None and edges[edge]["kind"] == Kind.FOLD else ()
         (changes if np.any(lo["s"] != hi["s"]) else smooth).append((line, i, lo, hi, skip))
-    collisions, between = locate_changes(solve, [c[:4] for c in changes], options.tol, rounds)
+    collisions, between = locate_changes(solve, changes, options.tol, rounds)
     brackets = [b for seg in smooth + between for b in _sign_brackets(*seg)]
     rows = _shrink_signs(solve, brackets, options, rounds) + [_collision_row(c) for c in collisions] + edges
-    return _table(_distinct(rows, options.tol), v.shape[-1], period)
-
-
-def _distinct(rows: list[dict], tol: float) -> list[dict]:
-    """Rows by line then parameter, one of each kind per place: two edges followed
-    through the same grid points (from either side of a point the line lost)
-    close on the same point and search the same stretches."""
-    rows = sorted(rows, key=lambda r: (r["line"], r["parameter"]))
-    out: list[dict] = []
-    for r in rows:
-        same = [o for o in out[-4:] if o["line"] == r["line"] and o["kind"] == r["kind"]
-                and abs(o["parameter"] - r["parameter"]) <= 2 * tol]
-        if not same:
-            out.append(r)
-    return out
+    rows.sort(key=lambda r: (r["line"], r["parameter"]))
+    return _table(rows, v.shape[-1], period)
 
 
 def _increasing(status, v, multipliers, lines, axis, sequences, period):
@@ -495,6 +486,9 @@ def _shrink_signs(solve, brackets: list[dict], options: BifurcationOptions, roun
         status = state[r] if state[r] != Status.OK else st[r]
         if kind[r] == Kind.NEIMARK_SACKER and not _complex_pair_on_circle(mu_m[r]):
             continue  # a neutral saddle (real mu_i mu_j = 1), not a bifurcation of the cycle
-        out.append({"kind": kind[r], "parameter": mid[r], "line": line[r], "status": status, "v": v_m[r],
-                    "multipliers": mu_m[r], "beyond": Status.OK, "sequences": seq[r]})
+        found = st[r] == Status.OK  # a failed midpoint solve's point and multipliers are not a gait's
+        out.append({"kind": kind[r], "parameter": mid[r], "line": line[r], "status": status,
+                    "v": v_m[r] if found else np.full_like(v_m[r], np.nan),
+                    "multipliers": mu_m[r] if found else np.full_like(mu_m[r], np.nan), "beyond": Status.OK,
+                    "sequences": seq[r]})
     return out

@@ -1,9 +1,10 @@
 """Where a continuation line's gait is lost: the edge located by bisection (:func:`shrink_edges`).
 
 Part of :func:`jaxwalk.bifurcation.locate`. The re-solve is given as
-``solve(at, rows, guess) -> (status, v, multipliers, sequences)`` (the batched
-Newton of :mod:`jaxwalk.bifurcation` at parameter values ``at`` of bracket rows
-``rows``, each from ``guess``), so this module needs no program of its own.
+``solve(at, line, i, guess) -> (status, v, multipliers, sequences)`` (the
+batched Newton of :mod:`jaxwalk.bifurcation` at parameter values ``at`` on
+lines ``line``, the other parameters of grid point ``i``, each from
+``guess``), so this module needs no program of its own.
 """
 
 from __future__ import annotations
@@ -34,14 +35,15 @@ def shrink_edges(solve, rows, x: np.ndarray, status, v, multipliers, sequences, 
     same holds for the grid point beyond the edge, whose failure the line's own
     continuation found from its other side or from far away: once the bracket
     has closed on it, it is solved from the cycle next to it, and where the
-    cycle is found there the edge moves on to the next interval (or, past the
-    line's last point, there is none).
+    cycle is found there the edge moves on to the next interval; past the
+    line's last point, or onto a grid point that has a gait, there is none
+    (the grid's own brackets and edges take the line on from there).
 
     Returns ``(edges, segments)``. ``edges``: one dict per edge still inside
     its line: ``parameter`` (the bracket's midpoint), ``line``, ``v``,
     ``multipliers`` and ``sequences`` of the last cycle found, ``beyond`` (the
     failure's status); ``kind`` is the caller's to decide. ``segments``:
-    ``(line, i, a, b)`` for each stretch of a line between two of the cycles
+    ``(line, i, a, b, edge)`` for each stretch of a line between two of the cycles
     followed that no two found grid gaits bracket (from the last found grid
     point, or a grid point the edge moved through, to the next one or to the
     last cycle found; ``a``, ``b`` gaits as dicts ``x``, ``v``, ``mu``, ``s``
@@ -115,6 +117,7 @@ class _Edges:
     anchor: list
     anchor_i: np.ndarray
     crossed: list
+    grid: tuple  # the grid's (v, multipliers, sequences)
 
     @classmethod
     def start(cls, rows, x, status, v, multipliers, sequences) -> "_Edges":
@@ -123,7 +126,7 @@ class _Edges:
         anchor = [{"x": x[l_, i_], "v": v[l_, i_], "mu": mu[l_, i_], "s": seq[l_, i_]} for l_, i_ in zip(line, ok_i)]
         return cls(line, ok_i, bad_i, x, status, x[line, ok_i].copy(), x[line, bad_i].copy(), v[line, ok_i].copy(),
                    mu[line, ok_i].copy(), seq[line, ok_i].copy(), status[line, bad_i].astype(np.int8),
-                   np.ones(len(rows), bool), np.zeros(len(rows), bool), anchor, ok_i.copy(), [])
+                   np.ones(len(rows), bool), np.zeros(len(rows), bool), anchor, ok_i.copy(), [], (v, mu, seq))
 
     def found_at(self, r, at, v, mu, s, probed) -> None:
         """The cycle was found at ``at``; a probed grid point moves the edge on one interval."""
@@ -141,6 +144,13 @@ class _Edges:
         self.ended[moved[past]] = True
         on = moved[~past]
         self.bad[on], self.beyond[on] = self.x[self.line[on], self.bad_i[on]], self.status[self.line[on], self.bad_i[on]]
+        v, mu, seq = self.grid
+        for row in on[self.beyond[on] == Status.OK]:  # onto a grid gait: the edge ends, its stretch is searched
+            line, j = self.line[row], self.bad_i[row]
+            self.crossed.append((line, self.ok_i[row], self.anchor[row], {"x": self.x[line, j], "v": v[line, j],
+                                                                           "mu": mu[line, j], "s": seq[line, j]}, None))
+            self.ended[row] = True
+            self.anchor[row] = self.crossed[-1][3]
 
     def lost_at(self, r, reached, v, mu, s, failed, why) -> None:
         """The cycle, followed, was found up to ``reached`` and lost at ``failed`` (status ``why``)."""

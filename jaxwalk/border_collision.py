@@ -34,17 +34,18 @@ MAX_PASSES = 8
 
 
 def locate_changes(solve, changes: list[tuple], tol: float, rounds) -> tuple[list[dict], list[tuple]]:
-    """Every sequence change inside the brackets ``changes``, ``(line, i, lo, hi)``
+    """Every sequence change inside the brackets ``changes``, ``(line, i, lo, hi, skip)``
     (gait dicts ``x``, ``v``, ``mu``, ``s`` at the ends, ``lo["x"] < hi["x"]``,
-    their sequences different).
+    their sequences different; ``skip``: bifurcation kinds not to seek in the bracket).
 
     Each pass locates, in every bracket, where the lower end's sequence ends
     (:func:`shrink_collisions`); the stretch from there to the upper end is a
     new bracket if its two ends still differ (a third sequence), up to
-    :data:`MAX_PASSES` passes. Returns ``(collisions, smooth)``: the located
-    collisions (:func:`shrink_collisions`'s dicts) and the stretches of one
-    sequence between them, ``(line, i, lo, hi)``, where a test function's sign
-    change is a multiplier's continuous crossing.
+    :data:`MAX_PASSES` passes; a bracket still open after them is reported as
+    an unlocated collision (status ``NO_CONVERGENCE``). Returns ``(collisions,
+    smooth)``: the collisions (:func:`shrink_collisions`'s dicts) and the
+    stretches of one sequence between them, ``(line, i, lo, hi, skip)``, where a
+    test function's sign change is a multiplier's continuous crossing.
     """
     collisions, smooth, pending = [], [], list(changes)
     for _ in range(MAX_PASSES):
@@ -52,16 +53,24 @@ def locate_changes(solve, changes: list[tuple], tol: float, rounds) -> tuple[lis
             break
         found = shrink_collisions(solve, [{"line": c[0], "i": c[1], "lo": c[2], "hi": c[3]} for c in pending], tol, rounds)
         following = []
-        for (line, i, lo, hi), c in zip(pending, found):
+        for (line, i, lo, hi, skip), c in zip(pending, found):
             collisions.append(c)
             below = {"x": c["lo"], "v": c["v_lo"], "mu": c["multipliers_lo"], "s": c["sequences_lo"]}
             above = {"x": c["hi"], "v": c["v_hi"], "mu": c["multipliers_hi"], "s": c["sequences_hi"]}
             if below["x"] > lo["x"]:
-                smooth.append((line, i, lo, below))
+                smooth.append((line, i, lo, below, skip))
             if above["x"] < hi["x"]:
-                (following if np.any(above["s"] != hi["s"]) else smooth).append((line, i, above, hi))
+                (following if np.any(above["s"] != hi["s"]) else smooth).append((line, i, above, hi, skip))
         pending = following
+    collisions += [_unlocated(*c[:4]) for c in pending]
     return collisions, smooth
+
+
+def _unlocated(line, i, lo: dict, hi: dict) -> dict:
+    """A sequence-change bracket left open (more changes in it than :data:`MAX_PASSES`)."""
+    return {"line": line, "i": i, "parameter": 0.5 * (lo["x"] + hi["x"]), "status": Status.NO_CONVERGENCE,
+            "lo": lo["x"], "hi": hi["x"], "v_lo": lo["v"], "multipliers_lo": lo["mu"], "sequences_lo": lo["s"],
+            "v_hi": hi["v"], "multipliers_hi": hi["mu"], "sequences_hi": hi["s"]}
 
 
 def shrink_collisions(solve, brackets: list[dict], tol: float, rounds) -> list[dict]:

@@ -16,6 +16,7 @@ import pytest
 
 from jaxwalk import bifurcation
 from jaxwalk.bifurcation import BifurcationOptions, Kind, locate
+from jaxwalk.border_collision import MAX_PASSES
 from jaxwalk.models import get_model
 from jaxwalk.status import Status
 
@@ -221,3 +222,49 @@ def test_edges_followed_through_grid_points_report_each_point_once(monkeypatch):
     found = _run(monkeypatch, evaluate, [0.0, 0.3, 0.6, 1.0], status=[Status.OK, Status.RUNNING, Status.OK, Status.SCUFFING])
     assert found.kind.tolist() == [Kind.FLIP, Kind.GRAZING]
     assert np.allclose(found.parameter, [0.7, 0.8], atol=1e-7)
+
+
+def test_beside_a_fold_edge_the_fold_is_not_sought_again_across_a_collision(monkeypatch):
+    """The gait is lost at a fold edge (0.8, a multiplier within the fold window
+    of +1); its order changes at 0.5 on the way. The fold test's sign change
+    beside the edge is the edge itself: one fold, the edge's."""
+    evaluate = _edge_fake(lambda x: np.where(x < 0.8, Status.OK, Status.NO_CONVERGENCE), lambda x: np.where(x < 0.5, A, B),
+                          lambda x: np.where(x < 0.5, 0.5, 1.0 + (x - 0.79)))
+    found = _run(monkeypatch, evaluate, [0.0, 0.4, 1.0])
+    assert found.kind.tolist() == [Kind.BORDER_COLLISION, Kind.FOLD]
+    assert np.allclose(found.parameter, [0.5, 0.8], atol=1e-7)
+
+
+def test_two_flips_closer_than_the_tolerance_on_either_side_of_a_grid_point_are_both_reported(monkeypatch):
+    """A multiplier passes -1 and comes back within 1.2e-6 around the grid
+    point 0.5 (tol 1e-6): two stability changes, both located."""
+    evaluate = _edge_fake(lambda x: np.full(len(x), Status.OK), lambda x: np.full(len(x), A),
+                          lambda x: -1.0 + ((x - 0.5) ** 2 - (0.6e-6) ** 2))
+    found = _run(monkeypatch, evaluate, [0.0, 0.5, 1.0], tol=1e-6)
+    assert found.kind.tolist() == [Kind.FLIP, Kind.FLIP] and found.status.tolist() == [Status.OK] * 2
+    assert np.allclose(found.parameter, [0.5 - 0.6e-6, 0.5 + 0.6e-6], atol=1e-6)
+
+
+def test_a_grid_point_the_line_lost_costs_one_interval_not_the_rest_of_the_line(monkeypatch):
+    """One spurious failure in the middle of 21 points, no bifurcation: the
+    edges followed from both sides stop at the next grid gaits (16 rounds of
+    solves at tol 1e-6, where walking on to the line's end took 176)."""
+    x = np.linspace(0.0, 1.0, 21)
+    status = np.zeros(21, np.int8)
+    status[10] = Status.RUNNING
+    evaluate = _edge_fake(lambda x: np.full(len(x), Status.OK), lambda x: np.full(len(x), A), lambda x: 0.5 + 0 * x)
+    monkeypatch.setattr(bifurcation, "_evaluate", evaluate)
+    _, v, mu, seq = evaluate(None, 1, None, None, {"gamma": x}, None)
+    bar = _Bar()
+    found = locate(get_model("simplest"), {"gamma": x[None]}, "gamma", status[None], v[None], mu[None],
+                   sequences=seq[None, :, 0], options=BifurcationOptions(tol=1e-6), progress=bar)
+    assert len(found.kind) == 0 and bar.n == bar.total <= 20
+
+
+def test_more_order_changes_in_one_interval_than_the_passes_leave_one_unlocated(monkeypatch):
+    codes = lambda x: (1000 + np.floor(x * 10)).astype(np.int64) + 2**52  # a new order every 0.1
+    evaluate = _edge_fake(lambda x: np.full(len(x), Status.OK), codes, lambda x: 0.5 + 0 * x)
+    found = _run(monkeypatch, evaluate, [0.0, 0.999], tol=1e-7)
+    located = found.kind[found.status == Status.OK]
+    assert located.tolist() == [Kind.BORDER_COLLISION] * MAX_PASSES
+    assert found.kind[-1] == Kind.BORDER_COLLISION and found.status[-1] == Status.NO_CONVERGENCE

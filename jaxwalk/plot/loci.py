@@ -173,8 +173,9 @@ def draw(ax, ds: xr.Dataset, view: xr.Dataset, x: str, y: str) -> tuple[set[str]
 def draw_on_curve(ax, curve: xr.Dataset, x: str, color) -> tuple[set[str], bool]:
     """On a ``lambda_max`` line plot: the points located on the line ``curve`` shows
     (every other grid axis at one value), each at its parameter and its largest
-    multiplier modulus there (a border collision's on its lower side), marked
-    by kind in the curve's colour (hollow: not located to tolerance). ``curve``:
+    multiplier modulus there (a border collision's on its lower side; on the
+    curve where the row has none), marked by kind in the curve's colour
+    (hollow: not located to tolerance). ``curve``:
     the dataset at the curve's values of the other grid axes (its table
     kept). Nothing when ``x`` is not the table's continuation axis. Returns the kinds drawn
     and whether an unlocated point was drawn."""
@@ -189,6 +190,12 @@ def draw_on_curve(ax, curve: xr.Dataset, x: str, color) -> tuple[set[str], bool]
     names = kind_names(curve)
     lam = np.max(np.hypot(table["bifurcation_multipliers_real"].values, table["bifurcation_multipliers_imag"].values),
                  axis=-1, initial=0.0)
+    # A row whose last solve failed has no multipliers: it is marked on the curve itself.
+    ok = (curve["status"].values == 0) & np.isfinite(curve["lambda_max"].values)
+    xs, ys = curve[x].values[ok], curve["lambda_max"].values[ok]
+    order = np.argsort(xs)
+    on_curve = np.interp(table["bifurcation_parameter"].values, xs[order], ys[order]) if ok.any() else np.full(lam.shape, np.nan)
+    lam = np.where(np.isfinite(lam), lam, on_curve)
     kinds, unlocated = set(), False
     for j in range(table.sizes["bifurcation"]):
         kind = names.get(int(table["bifurcation_kind"].values[j]), "")
