@@ -59,11 +59,11 @@ def test_min_clearance_is_resolved_and_recorded_only_when_on():
     config = loads_config(FLATFOOT_1)
     assert config.min_clearance is True and config.to_dict()["analysis"]["min_clearance"] is True
     assert parse_config(config.to_dict()).to_dict() == config.to_dict()  # the resolved config is a config
-    # failure_cause: on by default (jaxwalk.analyses.failure).
-    assert analysis_options(config).more == (("failure_cause", True), ("min_clearance", True))
+    # failure_cause and, on a model that logs its events, event_sequence: on by default.
+    assert analysis_options(config).more == (("failure_cause", True), ("event_sequence", True), ("min_clearance", True))
     off = loads_config(FLATFOOT_1.replace("min_clearance = true", ""))
     assert off.min_clearance is False and "min_clearance" not in off.to_dict()["analysis"]
-    assert analysis_options(off).more == (("failure_cause", True),)
+    assert analysis_options(off).more == (("failure_cause", True), ("event_sequence", True))
 
 
 @pytest.fixture(scope="module")

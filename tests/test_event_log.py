@@ -44,3 +44,30 @@ def test_a_step_longer_than_the_history_keeps_its_last_events():
     guards = [1, 2] * 8  # 16 events, 13 kept
     names = event_log.decode(int(event_log.sequence_code(FLAT, _ctx(guards))), FLAT.guards)
     assert names[0] == "..." and names[1:] == tuple(FLAT.guards[g] for g in guards[-event_log.DEPTH:])
+
+
+def test_the_event_sequence_output_is_on_by_default_only_where_the_model_logs_events():
+    from types import SimpleNamespace
+
+    from jaxwalk.analyses.event_sequence import ANALYSIS
+    from jaxwalk.sweep import loads_config
+    from jaxwalk.sweep.runner import analysis_options
+    from tests.conftest import COMPASS_2D
+    from tests.test_clearance import FLATFOOT_1
+
+    assert ("event_sequence", True) in analysis_options(loads_config(FLATFOOT_1)).more
+    assert "event_sequence" not in loads_config(FLATFOOT_1).to_dict()["analysis"]  # the default is not written
+    off = loads_config(FLATFOOT_1.replace("min_clearance = true", "event_sequence = false"))
+    assert "event_sequence" not in dict(analysis_options(off).more)
+    assert off.to_dict()["analysis"]["event_sequence"] is False
+    assert "event_sequence" not in dict(analysis_options(loads_config(COMPASS_2D)).more)  # the compass logs none
+
+    # Read from each gait's end context; 0 where the search failed.
+    ctx = np.stack([np.asarray(_ctx([0, 1, 2, 3, 4, 5])), np.asarray(_ctx([0, 1, 7]))])
+    block = SimpleNamespace(model=FLAT, gaits=SimpleNamespace(context=ctx), shape=(2,))
+    out = ANALYSIS.compute(block)
+    final = ANALYSIS.finalise(out, np.array([0, 7], np.int8))
+    assert final["event_sequence"].dtype == np.int64 and final["event_sequence"][1] == 0
+    assert event_log.decode(final["event_sequence"][0], FLAT.guards)[-1] == "toe_strike"
+    variables = ANALYSIS.variables(("gamma",), final, True, {"length": "1", "time": "1"}, FLAT)
+    assert variables["event_sequence"][2]["event_names"].split() == list(FLAT.guards)

@@ -201,8 +201,11 @@ def draw_on_curve(ax, curve: xr.Dataset, x: str, color) -> tuple[set[str], bool]
         kind = names.get(int(table["bifurcation_kind"].values[j]), "")
         located = int(table["bifurcation_status"].values[j]) == 0
         c = float(table["bifurcation_parameter"].values[j])
-        ax.plot([c], [lam[j]], linestyle="none", marker=STYLES.get(kind, OTHER_STYLE)[1], markersize=6,
-                markerfacecolor=color if located else "none", markeredgecolor="black", markeredgewidth=0.8,
+        marker = STYLES.get(kind, OTHER_STYLE)[1]
+        line_only = marker in ("x", "+")  # no face: its edge carries the curve's colour
+        ax.plot([c], [lam[j]], linestyle="none", marker=marker, markersize=6,
+                markerfacecolor=color if located else "none", markeredgewidth=1.4 if line_only else 0.8,
+                markeredgecolor=color if line_only and located else "black",
                 gid=LOCUS_GID if located else "bifurcation-unlocated", zorder=5)
         kinds |= {kind} if located else set()
         unlocated |= not located
