@@ -19,6 +19,7 @@ from jaxwalk.bifurcation import BifurcationOptions, Kind, locate
 from jaxwalk.border_collision import MAX_PASSES
 from jaxwalk.models import get_model
 from jaxwalk.status import Status
+from tests.test_edge_location import _Bar
 
 C, SLOPE = 0.43, 2.0
 A, B = 6 * 2**52 + 0x012345, 7 * 2**52 + 0x0123E45  # two sequence codes (B: one more event)
@@ -111,17 +112,6 @@ def test_the_same_sequence_everywhere_changes_nothing(monkeypatch):
     without = locate(*args)
     assert with_seq.kind.tolist() == without.kind.tolist() == [Kind.FOLD]
     assert with_seq.parameter[0] == without.parameter[0] and abs(with_seq.parameter[0] - 0.5) <= 1e-6
-
-
-class _Bar:
-    def __init__(self):
-        self.total, self.n = 0, 0
-
-    def update(self, k):
-        self.n += k
-
-    def refresh(self):
-        pass
 
 
 def test_between_the_last_grid_gait_and_a_lost_gaits_edge_both_are_located(monkeypatch):

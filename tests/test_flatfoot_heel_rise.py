@@ -203,6 +203,21 @@ PUSH_K = {**STANCE_RESET, "k": 0.26, "ankle_push": 0.06, "P": 0.035}
 PUSH_K_GUESS = (0.22104, -0.24624, -0.24743)
 
 
+def _fixed_point(params, guess):
+    """Newton on the step's forward tangent (this module's one step program) from
+    ``guess``: ``(v, StepResult, jacobian)``, asserted converged to 1e-10."""
+    v, eye = jnp.asarray(guess), jnp.eye(3)
+    for _ in range(6):
+        v1, res, _ = _step(v, _no_tangent, params)
+        residual = v1 - v
+        if float(jnp.max(jnp.abs(residual))) < 1e-10:
+            break
+        jac = jnp.stack([_step(v, eye[i], params)[2] for i in range(3)], axis=1)
+        v = v - jnp.linalg.solve(jac - eye, residual)
+    assert int(res.status) == Status.OK and float(jnp.max(jnp.abs(residual))) < 1e-10
+    return v, res, jnp.stack([_step(v, eye[i], params)[2] for i in range(3)], axis=1)
+
+
 @pytest.mark.parametrize(
     "changes, guess, raised, lam_search",
     [(STANCE_RESET, STANCE_RESET_GUESS, 0.0, 0.48145766), (PUSH_K, PUSH_K_GUESS, 5e-3, 0.68004128)],
@@ -213,16 +228,7 @@ def test_with_only_the_stance_spring_reset_a_stable_gait_ends_its_step_heel_up(c
     point whose step ends heel up with the new trailing ankle above ``raised``
     leg lengths, stable, with the sweeps' searches' ``lambda_max`` (``lam_search``)."""
     params = with_params(MODEL.default_params(), **changes)
-    v, eye = jnp.asarray(guess), jnp.eye(3)
-    for _ in range(6):
-        v1, res, _ = _step(v, _no_tangent, params)
-        residual = v1 - v
-        if float(jnp.max(jnp.abs(residual))) < 1e-10:
-            break
-        jac = jnp.stack([_step(v, eye[i], params)[2] for i in range(3)], axis=1)
-        v = v - jnp.linalg.solve(jac - eye, residual)
-    assert int(res.status) == Status.OK and float(jnp.max(jnp.abs(residual))) < 1e-10
-    jac = jnp.stack([_step(v, eye[i], params)[2] for i in range(3)], axis=1)
+    v, res, jac = _fixed_point(params, guess)
     lam = float(np.max(np.abs(np.linalg.eigvals(np.asarray(jac)))))
     # The sweeps' searches (Newton to 1e-8) and this one differ by 1.1e-8 and 3e-9.
     assert abs(lam - lam_search) < 1e-6, lam
@@ -331,3 +337,21 @@ def test_a_start_with_the_trailing_heel_below_the_ground_scuffs_at_once():
         assert Status(int(res.status)).name.lower() == status and info["status"] == status
         if status == "scuffing":
             assert float(res.time) == 0.0 and info["time"] == 0.0
+
+
+#: Where the stance heel starts to rise before toe-strike on the push_k line
+#: ``ankle_push`` 0.07, ``P`` 0.035: the border collision the sweep's bifurcation
+#: table locates (to 1e-6 in ``k``), and the gait there (6 digits).
+ONSET = {**PUSH_K, "ankle_push": 0.07, "P": 0.035, "k": 0.1051910}
+ONSET_GUESS = (0.246997, -0.246997, -0.298038)
+
+
+@pytest.mark.parametrize("dk, rises", [(-3e-6, False), (3e-6, True)], ids=["below", "above"])
+def test_the_located_onset_of_heel_rise_separates_the_two_event_orders(dk, rises):
+    """Just below the located collision the gait's step keeps the stance heel down
+    to toe-strike; just above it the heel rises first (3e-6 away: the location's
+    1e-6 and the 6 digits). Solved by this module's own Newton, not the locator's."""
+    params = with_params(MODEL.default_params(), **{**ONSET, "k": ONSET["k"] + dk})
+    _, res, _ = _fixed_point(params, ONSET_GUESS)
+    assert _names(res.ctx)[-3:] == (["heel_strike", "heel_rise", "toe_strike"] if rises else
+                                    ["knee_strike", "heel_strike", "toe_strike"])
