@@ -53,6 +53,7 @@ from jaxwalk.attractor import AttractorOptions, find_cycle, minimal_period, spec
 from jaxwalk.batching import Rows, over_rows, run_chunks, sub_batch_size
 from jaxwalk.bifurcation_edges import shrink_edges
 from jaxwalk.border_collision import jumps, locate_changes
+from jaxwalk.errors import ConfigError
 from jaxwalk.gait import NewtonOptions
 from jaxwalk.status import Status
 from jaxwalk.step import SolverOptions
@@ -254,6 +255,9 @@ def locate(
 
     Returns:
         :class:`Bifurcations`, rows ordered by line then parameter.
+
+    Raises:
+        ConfigError: ``sequences`` given for ``period`` above 1, or not integers.
     """
     status, v, multipliers, lines, sequences, known = _increasing(status, v, multipliers, lines, axis, sequences, period)
     n_lines, n = status.shape
@@ -264,7 +268,7 @@ def locate(
         return st, v_, mu_, (s_ if known else np.zeros_like(s_))  # codes not known: every gait one sequence
 
     gait = lambda line, j: {"x": x[line, j], "v": v[line, j], "mu": multipliers[line, j], "s": sequences[line, j]}
-    smooth, edge_rows, changes = [], [], []  # (line, i, lo, hi [, skip]), (line, found, lost), (line, i, lo, hi)
+    smooth, edge_rows, changes = [], [], []  # (line, i, lo, hi, skip), (line, found, lost), (line, i, lo, hi, skip)
     for line, i in ((line, i) for line in range(n_lines) for i in range(n - 1)):
         ok_a, ok_b = status[line, i] == Status.OK, status[line, i + 1] == Status.OK
         if ok_a and ok_b:
@@ -303,9 +307,9 @@ def _increasing(status, v, multipliers, lines, axis, sequences, period):
     known = sequences is not None
     if known:
         if period != 1:
-            raise ValueError("sequence codes are compared for period-1 gaits only (period %d given)" % period)
+            raise ConfigError("sequence codes are compared for period-1 gaits only (period %d given)" % period)
         if not np.issubdtype(np.asarray(sequences).dtype, np.integer):
-            raise ValueError(f"sequence codes must be integers (int64), got {np.asarray(sequences).dtype}")
+            raise ConfigError(f"sequence codes must be integers (int64), got {np.asarray(sequences).dtype}")
         seq = np.asarray(sequences, np.int64).reshape(status.shape + (1,))
     else:
         seq = np.zeros(status.shape + (period,), np.int64)
@@ -484,9 +488,9 @@ def _shrink_signs(solve, brackets: list[dict], options: BifurcationOptions, roun
     out = []
     for r in range(len(brackets)):
         status = state[r] if state[r] != Status.OK else st[r]
-        if kind[r] == Kind.NEIMARK_SACKER and not _complex_pair_on_circle(mu_m[r]):
-            continue  # a neutral saddle (real mu_i mu_j = 1), not a bifurcation of the cycle
         found = st[r] == Status.OK  # a failed midpoint solve's point and multipliers are not a gait's
+        if found and kind[r] == Kind.NEIMARK_SACKER and not _complex_pair_on_circle(mu_m[r]):
+            continue  # a neutral saddle (real mu_i mu_j = 1), not a bifurcation of the cycle
         out.append({"kind": kind[r], "parameter": mid[r], "line": line[r], "status": status,
                     "v": v_m[r] if found else np.full_like(v_m[r], np.nan),
                     "multipliers": mu_m[r] if found else np.full_like(mu_m[r], np.nan), "beyond": Status.OK,

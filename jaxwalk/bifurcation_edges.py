@@ -84,7 +84,7 @@ def shrink_edges(solve, rows, x: np.ndarray, status, v, multipliers, sequences, 
             edge = len(edges)
             edges.append({"parameter": 0.5 * (e.good[r] + e.bad[r]), "line": e.line[r], "v": e.v_good[r],
                           "multipliers": e.mu_good[r], "sequences": e.s_good[r], "beyond": e.beyond[r]})
-        if e.anchor[r]["x"] != last["x"]:
+        if not e.ended[r] and e.anchor[r]["x"] != last["x"]:  # an ended edge's stretches are all in `crossed`
             segments.append((e.line[r], e.ok_i[r], e.anchor[r], last, edge))
     return edges, segments
 
@@ -115,7 +115,6 @@ class _Edges:
     untested: np.ndarray
     ended: np.ndarray
     anchor: list
-    anchor_i: np.ndarray
     crossed: list
     grid: tuple  # the grid's (v, multipliers, sequences)
 
@@ -126,18 +125,16 @@ class _Edges:
         anchor = [{"x": x[l_, i_], "v": v[l_, i_], "mu": mu[l_, i_], "s": seq[l_, i_]} for l_, i_ in zip(line, ok_i)]
         return cls(line, ok_i, bad_i, x, status, x[line, ok_i].copy(), x[line, bad_i].copy(), v[line, ok_i].copy(),
                    mu[line, ok_i].copy(), seq[line, ok_i].copy(), status[line, bad_i].astype(np.int8),
-                   np.ones(len(rows), bool), np.zeros(len(rows), bool), anchor, ok_i.copy(), [], (v, mu, seq))
+                   np.ones(len(rows), bool), np.zeros(len(rows), bool), anchor, [], (v, mu, seq))
 
     def found_at(self, r, at, v, mu, s, probed) -> None:
         """The cycle was found at ``at``; a probed grid point moves the edge on one interval."""
         self.good[r], self.v_good[r], self.mu_good[r], self.s_good[r] = at, v, mu, s
-        for j in np.flatnonzero(probed):  # the grid point is the new anchor; the stretch to it, if the grid has no bracket
-            row, bad_i = r[j], self.bad_i[r[j]]
+        for j in np.flatnonzero(probed):  # the grid point (one the line lost) is the new anchor; the stretch to it
+            row = r[j]
             gait = {"x": at[j], "v": v[j], "mu": mu[j], "s": s[j]}
-            bracketed = self.status[self.line[row], self.anchor_i[row]] == Status.OK and self.status[self.line[row], bad_i] == Status.OK
-            if not bracketed:
-                self.crossed.append((self.line[row], self.ok_i[row], self.anchor[row], gait, None))
-            self.anchor[row], self.anchor_i[row] = gait, bad_i
+            self.crossed.append((self.line[row], self.ok_i[row], self.anchor[row], gait, None))
+            self.anchor[row] = gait
         moved = r[probed]
         self.bad_i[moved] += np.sign(self.bad_i[moved] - self.ok_i[moved])
         past = (self.bad_i[moved] < 0) | (self.bad_i[moved] >= self.x.shape[1])
@@ -150,7 +147,6 @@ class _Edges:
             self.crossed.append((line, self.ok_i[row], self.anchor[row], {"x": self.x[line, j], "v": v[line, j],
                                                                            "mu": mu[line, j], "s": seq[line, j]}, None))
             self.ended[row] = True
-            self.anchor[row] = self.crossed[-1][3]
 
     def lost_at(self, r, reached, v, mu, s, failed, why) -> None:
         """The cycle, followed, was found up to ``reached`` and lost at ``failed`` (status ``why``)."""

@@ -136,7 +136,7 @@ def test_between_the_last_grid_gait_and_a_lost_gaits_edge_both_are_located(monke
     found = locate(get_model("simplest"), {"gamma": x}, "gamma", status, v[None], mu[None], sequences=seq[None, :, 0],
                    options=BifurcationOptions(tol=1e-7), progress=bar)
     assert found.kind.tolist() == [Kind.BORDER_COLLISION, Kind.FLIP, Kind.GRAZING]
-    assert np.allclose(found.parameter, [C, flip, edge], atol=1e-7)
+    assert np.allclose(found.parameter, [C, flip, edge], rtol=0, atol=1e-7)
     assert found.jumps[0] == 0  # the flip test keeps its sign across the collision (0.5 -> -0.8)
     assert found.sequence.tolist() == [A, B, B] and found.beyond[2] == Status.SCUFFING
     assert bar.n == bar.total
@@ -189,7 +189,7 @@ def test_three_sequences_between_two_grid_points_give_two_collisions(monkeypatch
                           lambda x: 0.5 + 0 * x)
     found = _run(monkeypatch, evaluate, [0.0, 1.0])
     assert found.kind.tolist() == [Kind.BORDER_COLLISION] * 2
-    assert np.allclose(found.parameter, [C, 0.7], atol=1e-7)
+    assert np.allclose(found.parameter, [C, 0.7], rtol=0, atol=1e-7)
     assert found.sequence.tolist() == [A, B] and found.sequence_beyond.tolist() == [B, third]
 
 
@@ -211,7 +211,7 @@ def test_edges_followed_through_grid_points_report_each_point_once(monkeypatch):
                           lambda x: 0.5 - 15.0 * np.maximum(x - 0.6, 0.0), reach=0.35)
     found = _run(monkeypatch, evaluate, [0.0, 0.3, 0.6, 1.0], status=[Status.OK, Status.RUNNING, Status.OK, Status.SCUFFING])
     assert found.kind.tolist() == [Kind.FLIP, Kind.GRAZING]
-    assert np.allclose(found.parameter, [0.7, 0.8], atol=1e-7)
+    assert np.allclose(found.parameter, [0.7, 0.8], rtol=0, atol=1e-7)
 
 
 def test_beside_a_fold_edge_the_fold_is_not_sought_again_across_a_collision(monkeypatch):
@@ -222,7 +222,7 @@ def test_beside_a_fold_edge_the_fold_is_not_sought_again_across_a_collision(monk
                           lambda x: np.where(x < 0.5, 0.5, 1.0 + (x - 0.79)))
     found = _run(monkeypatch, evaluate, [0.0, 0.4, 1.0])
     assert found.kind.tolist() == [Kind.BORDER_COLLISION, Kind.FOLD]
-    assert np.allclose(found.parameter, [0.5, 0.8], atol=1e-7)
+    assert np.allclose(found.parameter, [0.5, 0.8], rtol=0, atol=1e-7)
 
 
 def test_two_flips_closer_than_the_tolerance_on_either_side_of_a_grid_point_are_both_reported(monkeypatch):
@@ -232,7 +232,7 @@ def test_two_flips_closer_than_the_tolerance_on_either_side_of_a_grid_point_are_
                           lambda x: -1.0 + ((x - 0.5) ** 2 - (0.6e-6) ** 2))
     found = _run(monkeypatch, evaluate, [0.0, 0.5, 1.0], tol=1e-6)
     assert found.kind.tolist() == [Kind.FLIP, Kind.FLIP] and found.status.tolist() == [Status.OK] * 2
-    assert np.allclose(found.parameter, [0.5 - 0.6e-6, 0.5 + 0.6e-6], atol=1e-6)
+    assert np.allclose(found.parameter, [0.5 - 0.6e-6, 0.5 + 0.6e-6], rtol=0, atol=1e-6)
 
 
 def test_a_grid_point_the_line_lost_costs_one_interval_not_the_rest_of_the_line(monkeypatch):
@@ -258,3 +258,44 @@ def test_more_order_changes_in_one_interval_than_the_passes_leave_one_unlocated(
     located = found.kind[found.status == Status.OK]
     assert located.tolist() == [Kind.BORDER_COLLISION] * MAX_PASSES
     assert found.kind[-1] == Kind.BORDER_COLLISION and found.status[-1] == Status.NO_CONVERGENCE
+
+
+def test_sequence_codes_that_cannot_be_compared_are_refused():
+    from jaxwalk.errors import ConfigError
+
+    x, status, v, mu, seq = _grid([0.0, 1.0], 0.8)
+    with pytest.raises(ConfigError, match="integers"):
+        locate(get_model("simplest"), {"gamma": x}, "gamma", status, v, mu, sequences=seq.astype(float))
+    with pytest.raises(ConfigError, match="period-1"):
+        locate(get_model("simplest"), {"gamma": x}, "gamma", status, v, mu, period=2, sequences=seq)
+
+
+class _FailingCall:
+    """A re-solve whose gaits have multipliers ``pair(x)`` (a complex pair, or one
+    real multiplier beside 0.1) and whose call number ``fail_at`` fails (``STALLED``)."""
+
+    def __init__(self, first, complex_pair, fail_at=0):
+        self.first, self.complex_pair, self.fail_at, self.calls = first, complex_pair, fail_at, 0
+
+    def __call__(self, model, k, solver, newton, params, v0):
+        x = np.asarray(params["gamma"], np.float64)
+        z = self.first(x)
+        mu = np.stack([z, np.conj(z) if self.complex_pair else np.full_like(z, 0.1)], 1).astype(np.complex128)
+        self.calls += 1
+        status = np.full(len(x), Status.STALLED if self.calls == self.fail_at else Status.OK, np.int8)
+        return status, np.stack([x, 0 * x], 1), mu, np.full((len(x), 1), A, np.int64)
+
+
+@pytest.mark.parametrize("first, complex_pair, kind", [
+    (lambda x: 0.5 + x + 0j, False, Kind.FOLD),  # the fold test through zero at 0.5
+    (lambda x: (0.5 + x) * np.exp(0.3j), True, Kind.NEIMARK_SACKER),  # a pair through the unit circle at 0.5
+], ids=["fold", "neimark_sacker"])
+def test_a_sign_change_whose_last_solve_fails_is_kept_unlocated_with_no_multipliers(monkeypatch, first, complex_pair, kind):
+    """The bracket closes but the midpoint's own solve, the run's last call, fails:
+    the row stays, with that failure as its status and NaN for its point and
+    multipliers (not a solver's stand-in)."""
+    clean = _FailingCall(first, complex_pair)
+    assert _run(monkeypatch, clean, [0.0, 1.0], tol=1e-6).kind.tolist() == [kind]
+    found = _run(monkeypatch, _FailingCall(first, complex_pair, fail_at=clean.calls), [0.0, 1.0], tol=1e-6)
+    assert found.kind.tolist() == [kind] and found.status.tolist() == [Status.STALLED]
+    assert np.isnan(found.multipliers).all() and np.isnan(found.v).all()

@@ -152,3 +152,20 @@ def test_line_plots_mark_each_curves_own_located_points_at_their_largest_multipl
             "bifurcation, not located to tolerance"} <= set(legend_texts(fig))
     other = lines_figure(ds, "lambda_max", choose_layout(ds, "lines", x="m_h", y="gamma"))
     assert drawn(other) == []
+
+
+def test_a_row_without_multipliers_is_marked_on_its_curve():
+    """An unlocated row whose last solve failed has NaN multipliers: its hollow
+    marker sits on the curve, at the curve's lambda_max interpolated there."""
+    from jaxwalk.plot import lines_figure
+
+    ds = synthetic(GRID_2D)
+    ds = with_table(ds, [(Kind.FLIP, 0.055, 2, Status.STALLED)])
+    ds["bifurcation_multipliers_real"][:] = np.nan
+    ds["bifurcation_multipliers_imag"][:] = np.nan
+    fig = lines_figure(ds, "lambda_max", choose_layout(ds, "lines", x="gamma", y="m_h"))
+    (hollow,) = [line for ax in fig.axes for line in ax.lines if line.get_gid() == "bifurcation-unlocated"]
+    curve = ds.isel(m_h=2)
+    ok = curve["status"].values == 0
+    expected = np.interp(0.055, curve["gamma"].values[ok], curve["lambda_max"].values[ok])
+    assert float(hollow.get_xdata()[0]) == 0.055 and float(hollow.get_ydata()[0]) == pytest.approx(expected, rel=1e-12)
