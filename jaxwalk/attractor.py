@@ -240,11 +240,12 @@ def _fresh_solve(k: Array, v: Array, max_period: int) -> dict:
                 last=jnp.zeros_like(v), halvings=jnp.zeros((), jnp.int32), trips=jnp.zeros((), jnp.int32))
 
 
-def _newton_trip(c: _CycleSolve, newton: NewtonOptions) -> _CycleSolve:
+def _newton_trip(c: _CycleSolve, newton: NewtonOptions, into_section) -> _CycleSolve:
     """The Newton update after an evaluation of ``f^k`` (as :func:`jaxwalk.gait.find_gait`'s):
     a converged iterate ends the solve after one more evaluation (its Jacobian);
     an update whose k steps fail is halved, up to :data:`MAX_HALVINGS` times (a
-    k-step map's Newton step can overshoot into scuffing)."""
+    k-step map's Newton step can overshoot into scuffing). The new iterate is
+    kept in the section (:meth:`Walker.into_section`)."""
     eye = jnp.eye(c.v.shape[0], dtype=c.v.dtype)
     rows = jnp.arange(c.walked.shape[0])[:, None]
     points = jnp.where(rows < c.j, c.walked, c.x)
@@ -265,7 +266,7 @@ def _newton_trip(c: _CycleSolve, newton: NewtonOptions) -> _CycleSolve:
     ).astype(jnp.int8)
     move = ~(failed | bad | c.converged)
     half = 0.5 * c.last
-    v = jnp.where(retry, c.v_prev + half, jnp.where(move, c.v + update, c.v))
+    v = jnp.where(retry, into_section(c.v_prev + half), jnp.where(move, into_section(c.v + update), c.v))
     return c._replace(
         v=v, it=it, status=status, converged=c.converged | (~failed & (size < newton.tol)),
         jac=jnp.where(failed, c.jac, jac_r + eye), points=jnp.where(failed, c.points, points),
@@ -290,7 +291,7 @@ def _solve_cycle(model: Walker, params, v0: Array, k: Array, max_period: int, so
 
     def update(c: _CycleSolve) -> _CycleSolve:
         done = evaluated(c)
-        n = _newton_trip(c, newton)
+        n = _newton_trip(c, newton, functools.partial(model.into_section, params=params))
         if restart is not None:
             k_min = minimal_period(n.points, n.k, restart)
             again = (n.status == Status.OK) & (k_min < n.k)
@@ -310,7 +311,7 @@ def _solve_cycle(model: Walker, params, v0: Array, k: Array, max_period: int, so
                              logged=jnp.where(rows[:, 0] == c.j, event_log.sequence_code(model, res.ctx), c.logged))
         return jax.tree_util.tree_map(lambda a, b: jnp.where(stepping, a, b), stepped, c)
 
-    c = jax.lax.while_loop(lambda c: c.status == running, body, _CycleSolve(**_fresh_solve(k, v0, max_period)))
+    c = jax.lax.while_loop(lambda c: c.status == running, body, _CycleSolve(**_fresh_solve(k, model.into_section(v0, params), max_period)))
     return c.v, c.k, c.jac, c.points, c.status, c.sequences
 
 

@@ -238,15 +238,17 @@ def find_gait(
     """
     running = jnp.int8(Status.IN_PROGRESS)
     n_v, dtype = v0.shape[0], v0.dtype
+    into_section = functools.partial(model.into_section, params=params)
+    v0 = into_section(v0)
     nan = jnp.full((), jnp.nan, dtype)
     zero = jnp.zeros((), jnp.int32)
     y0, _, ctx0 = jax.eval_shape(model.section_to_state, v0, params)  # the shapes of a step's state
-    fallback = Fallback(v0, jnp.asarray(False)) if fallback is None else fallback
+    fallback = Fallback(v0, jnp.asarray(False)) if fallback is None else fallback._replace(v=into_section(fallback.v))
     carry0 = _Newton(v0, zero, running, jnp.asarray(False), jnp.full((n_v, n_v), jnp.nan, dtype), nan, nan, nan, zero, zero,
                      zero - 1, zero - 1, jnp.full(y0.shape, jnp.nan, y0.dtype), jnp.full(ctx0.shape, jnp.nan, ctx0.dtype),
                      jnp.asarray(fallback.use, bool), zero, jnp.full((), jnp.inf, dtype))
     carry0 = jax.tree_util.tree_map(lambda x: state_dependent(x, v0), carry0)  # one trace of the body under vmap
-    body = _newton_iteration(step_residual(model, params, solver), newton, jnp.eye(n_v, dtype=dtype))
+    body = _newton_iteration(step_residual(model, params, solver), newton, jnp.eye(n_v, dtype=dtype), into_section)
     body = _fall_back(body, v0, fallback)
 
     def cond(c: _Newton):
@@ -279,8 +281,9 @@ class _Newton(NamedTuple):
     last_update: Array  # the previous update's size in this search (inf before the first)
 
 
-def _newton_iteration(residual, newton: NewtonOptions, eye: Array):
-    """The body of :func:`find_gait`'s loop: one evaluation and update."""
+def _newton_iteration(residual, newton: NewtonOptions, eye: Array, into_section):
+    """The body of :func:`find_gait`'s loop: one evaluation and update, the new
+    iterate kept in the section (:meth:`Walker.into_section`)."""
     running = jnp.int8(Status.IN_PROGRESS)
 
     def body(carry: _Newton) -> _Newton:
@@ -304,7 +307,7 @@ def _newton_iteration(residual, newton: NewtonOptions, eye: Array):
         ).astype(jnp.int8)
         move = ~(step_failed | bad_number | converged)
         return carry._replace(
-            v=jnp.where(move, v + update, v),
+            v=jnp.where(move, into_section(v + update), v),
             k=k,
             status=status,
             converged=converged | _small(size, carry.last_update, newton),

@@ -331,6 +331,20 @@ class Walker:
         """*model* a starting point for Newton's method, ``(len(section_names),)``."""
         raise NotImplementedError
 
+    def into_section(self, v: Float[Array, "n_v"], params: Params) -> Float[Array, "n_v"]:
+        """A point of the section that is a state of the walker, for ``v`` that may not be.
+
+        Newton's iterates (:func:`jaxwalk.gait.find_gait`, the attractors' cycle
+        solve) pass through it after every update, so a search whose linear step
+        leaves the section goes on from its edge instead of ending at a start the
+        walker cannot have. By default every section point is a state: ``v`` itself.
+        A model whose gaits can lie on the section's edge (the heel-rise walker's
+        heel-down gaits) returns the nearest edge point; where ``v`` is a state it
+        must return ``v`` unchanged (bit for bit), so the searches of other points
+        are untouched.
+        """
+        return v
+
     def guess_made_at(self, params: Mapping[str, float]) -> Mapping[str, float]:
         """Parameter values of the walker whose gait :meth:`initial_guess` gives at
         ``params`` (those that differ from the defaults); by default none, the

@@ -339,6 +339,21 @@ def test_a_start_with_the_trailing_heel_below_the_ground_scuffs_at_once():
             assert float(res.time) == 0.0 and info["time"] == 0.0
 
 
+def test_newton_keeps_its_iterates_with_the_trailing_ankle_on_or_above_the_ground():
+    """``into_section`` moves a point with ankle 2 below the ground onto the
+    ground (both feet flat, ``psi_2 = -psi``), and leaves one above it as it is."""
+    params = MODEL.default_params()
+    height = lambda v: float(geo.ankle(MODEL.section_to_state(v, params)[0][:6], params, 2)[1])
+    sunk = jnp.asarray([0.3245, 0.0, -0.3734])
+    moved = MODEL.into_section(sunk, params)
+    np.testing.assert_array_equal(np.asarray(moved), [0.3245, -0.3245, -0.3734])
+    assert height(sunk) < -0.01 and abs(height(moved)) < 1e-15
+    for raised in ([0.22104, -0.24624, -0.24743], [0.3245, -0.3245, -0.3734]):  # heel up; flat
+        v = jnp.asarray(raised)
+        assert height(v) > -1e-15
+        np.testing.assert_array_equal(np.asarray(MODEL.into_section(v, params)), np.asarray(v))
+
+
 #: Where the stance heel starts to rise before toe-strike on the push_k line
 #: ``ankle_push`` 0.07, ``P`` 0.035: the border collision the sweep's bifurcation
 #: table locates (to 1e-6 in ``k``), and the gait there (6 digits).

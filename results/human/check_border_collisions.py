@@ -12,7 +12,9 @@ table names for it, and how far the two ``lambda_max`` are apart.
     python results/human/check_border_collisions.py
 
 Measured 2026-12-07: all nine collisions, both orders as named, ``lambda_max``
-3.3e-7 to 2.6e-5 apart (the lines' own slope over 2e-6).
+3.3e-7 to 2.6e-5 apart (the lines' own slope over 2e-6); again (session 53,
+Newton's iterates kept in the section) all ten, the tenth on the stance-reset
+line ``mu`` 1e6, ``ankle_rest`` 0.2 at ``k`` 0.058421, 3.6e-7 to 2.6e-5 apart.
 """
 
 from __future__ import annotations

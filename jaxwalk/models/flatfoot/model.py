@@ -352,6 +352,19 @@ class FlatFootHeelRiseWalker(FlatFootWalker):
         _, delta = geo.chord(params)
         return jnp.stack([y[geo.THIGH_1] - delta, y[geo.THIGH_2] - delta, y[6 + geo.THIGH_1]])
 
+    def into_section(self, v, params):
+        """``v`` with ankle 2 raised to the ground where it is below it.
+
+        Ankle 2's height is ``A (cos psi - cos psi_2)`` (both chords ``A`` long),
+        so it is below the ground where ``|psi_2| < |psi|``; there ``psi_2`` moves
+        to the nearer edge, ``-|psi|`` (``+|psi|`` if ``psi_2 > 0``), both feet flat.
+        A heel-down gait lies on that edge, and Newton's linear step towards it from
+        a heel-up side can cross it (docs/model.md, "Contacts and starts").
+        """
+        psi, psi_2 = v[0], v[1]
+        edge = jnp.where(psi_2 > 0.0, 1.0, -1.0) * jnp.abs(psi)
+        return v.at[1].set(jnp.where(jnp.abs(psi_2) < jnp.abs(psi), edge, psi_2))
+
     def initial_guess(self, params):
         """The base walker's documented gait (:meth:`FlatFootWalker.initial_guess`), both feet flat: ``psi_2 = -psi``."""
         psi, psi_dot = super().initial_guess(params)
