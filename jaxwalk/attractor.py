@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-from typing import NamedTuple
+from typing import Callable, NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -240,7 +240,8 @@ def _fresh_solve(k: Array, v: Array, max_period: int) -> dict:
                 last=jnp.zeros_like(v), halvings=jnp.zeros((), jnp.int32), trips=jnp.zeros((), jnp.int32))
 
 
-def _newton_trip(c: _CycleSolve, newton: NewtonOptions, into_section) -> _CycleSolve:
+def _newton_trip(c: _CycleSolve, newton: NewtonOptions,
+                 into_section: Callable[[Float[Array, "n_v"]], Float[Array, "n_v"]]) -> _CycleSolve:
     """The Newton update after an evaluation of ``f^k`` (as :func:`jaxwalk.gait.find_gait`'s):
     a converged iterate ends the solve after one more evaluation (its Jacobian);
     an update whose k steps fail is halved, up to :data:`MAX_HALVINGS` times (a
@@ -266,7 +267,7 @@ def _newton_trip(c: _CycleSolve, newton: NewtonOptions, into_section) -> _CycleS
     ).astype(jnp.int8)
     move = ~(failed | bad | c.converged)
     half = 0.5 * c.last
-    v = jnp.where(retry, into_section(c.v_prev + half), jnp.where(move, into_section(c.v + update), c.v))
+    v = into_section(jnp.where(retry, c.v_prev + half, jnp.where(move, c.v + update, c.v)))
     return c._replace(
         v=v, it=it, status=status, converged=c.converged | (~failed & (size < newton.tol)),
         jac=jnp.where(failed, c.jac, jac_r + eye), points=jnp.where(failed, c.points, points),
@@ -311,7 +312,8 @@ def _solve_cycle(model: Walker, params, v0: Array, k: Array, max_period: int, so
                              logged=jnp.where(rows[:, 0] == c.j, event_log.sequence_code(model, res.ctx), c.logged))
         return jax.tree_util.tree_map(lambda a, b: jnp.where(stepping, a, b), stepped, c)
 
-    c = jax.lax.while_loop(lambda c: c.status == running, body, _CycleSolve(**_fresh_solve(k, model.into_section(v0, params), max_period)))
+    start = _CycleSolve(**_fresh_solve(k, model.into_section(v0, params), max_period))
+    c = jax.lax.while_loop(lambda c: c.status == running, body, start)
     return c.v, c.k, c.jac, c.points, c.status, c.sequences
 
 

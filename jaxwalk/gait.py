@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-from typing import NamedTuple
+from typing import Callable, NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -281,7 +281,8 @@ class _Newton(NamedTuple):
     last_update: Array  # the previous update's size in this search (inf before the first)
 
 
-def _newton_iteration(residual, newton: NewtonOptions, eye: Array, into_section):
+def _newton_iteration(residual, newton: NewtonOptions, eye: Array,
+                      into_section: Callable[[Float[Array, "n_v"]], Float[Array, "n_v"]]):
     """The body of :func:`find_gait`'s loop: one evaluation and update, the new
     iterate kept in the section (:meth:`Walker.into_section`)."""
     running = jnp.int8(Status.IN_PROGRESS)
@@ -306,14 +307,15 @@ def _newton_iteration(residual, newton: NewtonOptions, eye: Array, into_section)
             running,
         ).astype(jnp.int8)
         move = ~(step_failed | bad_number | converged)
+        kept = into_section(v + update)
         return carry._replace(
-            v=jnp.where(move, into_section(v + update), v),
+            v=jnp.where(move, kept, v),
             k=k,
             status=status,
             converged=converged | _small(size, carry.last_update, newton),
-            # A step cut to max_update moved the iterate less than ``size``: no
-            # contraction is measured across it.
-            last_update=jnp.where(size > newton.max_update, jnp.inf, size),
+            # A step cut to max_update, or moved back into the section, did not
+            # go where Newton sent it: no contraction is measured across it.
+            last_update=jnp.where((size > newton.max_update) | jnp.any(kept != v + update), jnp.inf, size),
             jac=jac_r + eye,
             period=res.time,
             length=res.length,

@@ -339,9 +339,10 @@ class Walker:
         leaves the section goes on from its edge instead of ending at a start the
         walker cannot have. By default every section point is a state: ``v`` itself.
         A model whose gaits can lie on the section's edge (the heel-rise walker's
-        heel-down gaits) returns the nearest edge point; where ``v`` is a state it
-        must return ``v`` unchanged (bit for bit), so the searches of other points
-        are untouched.
+        heel-down gaits) returns a point on that edge; where ``v`` is a state (as
+        the model's step judges one: a start it does not fail at once for being
+        outside) it must return ``v`` unchanged, bit for bit, so the searches of
+        other points are untouched.
         """
         return v
 

@@ -15,6 +15,7 @@ recorder (one), and the base walker's shared step program
 from __future__ import annotations
 
 import functools
+import os
 
 import jax
 import jax.numpy as jnp
@@ -340,18 +341,56 @@ def test_a_start_with_the_trailing_heel_below_the_ground_scuffs_at_once():
 
 
 def test_newton_keeps_its_iterates_with_the_trailing_ankle_on_or_above_the_ground():
-    """``into_section`` moves a point with ankle 2 below the ground onto the
-    ground (both feet flat, ``psi_2 = -psi``), and leaves one above it as it is."""
+    """``into_section`` moves a point with ankle 2 more than ``SUNK_TOL`` below
+    the ground onto the ground (both feet flat, ``psi_2 = -psi``; the legs
+    together where ``psi_2 > 0``), and leaves the others as they are: above
+    it, and within ``SUNK_TOL`` below (a flat foot's drift, which the step
+    accepts as flat)."""
     params = MODEL.default_params()
     height = lambda v: float(geo.ankle(MODEL.section_to_state(v, params)[0][:6], params, 2)[1])
-    sunk = jnp.asarray([0.3245, 0.0, -0.3734])
-    moved = MODEL.into_section(sunk, params)
-    np.testing.assert_array_equal(np.asarray(moved), [0.3245, -0.3245, -0.3734])
-    assert height(sunk) < -0.01 and abs(height(moved)) < 1e-15
-    for raised in ([0.22104, -0.24624, -0.24743], [0.3245, -0.3245, -0.3734]):  # heel up; flat
-        v = jnp.asarray(raised)
-        assert height(v) > -1e-15
+    for sunk, edge in (([0.3245, 0.0, -0.3734], -0.3245), ([0.3245, 0.1, -0.3734], 0.3245)):
+        moved = MODEL.into_section(jnp.asarray(sunk), params)
+        np.testing.assert_array_equal(np.asarray(moved), [0.3245, edge, -0.3734])
+        assert height(jnp.asarray(sunk)) < -0.01 and abs(height(moved)) < 1e-15
+    flat = jnp.asarray([0.3245, -0.3245, -0.3734])
+    rate = -(height(flat.at[1].add(1e-4)) - height(flat)) / 1e-4  # depth per unit of psi_2 towards the stance leg
+    drift, beyond = flat.at[1].add(0.5 * hr.SUNK_TOL / rate), flat.at[1].add(2.0 * hr.SUNK_TOL / rate)
+    assert -hr.SUNK_TOL < height(drift) < 0.0 and height(beyond) < -hr.SUNK_TOL
+    assert abs(float(MODEL.into_section(beyond, params)[1]) - -0.3245) < 1e-15
+    for kept in ([0.22104, -0.24624, -0.24743], flat, drift):  # heel up; flat; flat to the drift
+        v = jnp.asarray(kept)
         np.testing.assert_array_equal(np.asarray(MODEL.into_section(v, params)), np.asarray(v))
+
+
+class _NoEdge(type(MODEL)):
+    """The heel-rise walker as it was before Newton kept its iterates in the section."""
+
+    name = "flatfoot_heel_rise_no_edge"
+
+    def into_section(self, v, params):
+        return v
+
+
+@pytest.mark.skipif(not os.environ.get("JAXWALK_SLOW_CHECKS"), reason=(
+    "compiles the heel-rise walker's gait search twice (a few minutes); the projection itself is "
+    "tested above and in test_newton_in_section.py; set JAXWALK_SLOW_CHECKS=1"))
+def test_the_search_reaches_a_heel_down_gait_through_the_edge_of_the_section():
+    """At ``mu`` 1e6, ``ankle_rest`` 0.2, ``k`` 0.03 of the stance-reset walker,
+    Newton from the model's guess crosses the section's edge on its way to a
+    heel-down gait (``lambda_max`` 1.9118 in the stance-reset sweep): with its
+    iterates kept in the section it converges there; without, its step from
+    the sunk iterate ends ``scuffing``."""
+    from jaxwalk.gait import find_gait
+
+    params = with_params(MODEL.default_params(), **{**STANCE_RESET, "mu": 1e6, "ankle_rest": 0.2, "k": 0.03})
+    found = {}
+    for model in (MODEL, _NoEdge()):
+        search = compiling.jit(lambda p, v, m=model: find_gait(m, p, v), model)
+        found[model.name] = search(params, MODEL.initial_guess(params))
+    gait, lost = found[MODEL.name], found["flatfoot_heel_rise_no_edge"]
+    assert Status(int(gait.status)) == Status.OK and abs(float(gait.lambda_max) - 1.911808) < 1e-5
+    assert abs(float(gait.v[1]) + float(gait.v[0])) < 1e-9  # heel down, on the edge (to the drift)
+    assert Status(int(lost.status)) == Status.SCUFFING
 
 
 #: Where the stance heel starts to rise before toe-strike on the push_k line

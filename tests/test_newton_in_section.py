@@ -4,8 +4,9 @@ A gait can lie on the edge of a walker's section (the heel-rise walker's
 heel-down gaits: the trailing ankle on the ground), and Newton's linear step
 towards it can cross the edge, to a start the walker cannot have, whose step
 fails at once. :func:`jaxwalk.gait.find_gait`'s update moves such an iterate
-back onto the edge. Shown on a synthetic residual whose Newton overshoots
-(``atan``), eagerly, without a walker: the loop body is run by hand.
+back onto the edge; so does the attractors' Newton on the k-step map. Shown
+on a synthetic residual whose Newton overshoots (``atan``), eagerly, without
+a walker: the loops' bodies are run by hand.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from jaxwalk.attractor import _CycleSolve, _fresh_solve, _newton_trip
 from jaxwalk.gait import NewtonOptions, _Newton, _newton_iteration
 from jaxwalk.models import MODELS
 from jaxwalk.status import Status
@@ -92,3 +94,31 @@ def test_every_models_guess_is_a_state_and_its_projection_idempotent(name):
         v = jnp.asarray(np.asarray(guess) + rng.normal(0.0, 0.2, guess.shape))
         once = model.into_section(v, params)
         np.testing.assert_array_equal(np.asarray(model.into_section(once, params)), np.asarray(once))
+
+
+def _trip(v, image, status=Status.OK, **fields):
+    """One Newton trip of the attractors' cycle solve (period 1) after an
+    evaluation whose step from ``v`` reached ``image`` with ``status``."""
+    c = _CycleSolve(**_fresh_solve(jnp.asarray(1, jnp.int32), jnp.asarray(v), 1))
+    # f(v) = v + (atan(v_0), v_1 - 0.3): df/dv = I + diag(1 / (1 + v_0^2), 1).
+    c = c._replace(x=jnp.asarray(image), dx=jnp.eye(2) + jnp.diag(jnp.asarray([1.0 / (1.0 + float(v[0]) ** 2), 1.0])),
+                   j=jnp.asarray(1, jnp.int32), step_status=jnp.int8(status), **fields)
+    return c
+
+
+def test_the_cycle_solves_update_and_its_halved_retry_stay_in_the_section():
+    """The attractors' Newton (on ``f^k``): the update from 0.15 of ``atan``'s
+    residual lands outside and is moved to the edge; a retry after a failed
+    step, halved back towards the previous iterate from outside, is moved too."""
+    edge = lambda v: v.at[0].set(jnp.maximum(v[0], 0.0))
+    v = jnp.asarray([0.15, 0.3])
+    image = v + jnp.stack([jnp.arctan(v[0]), v[1] - 0.3])
+    free = _newton_trip(_trip(v, image), NewtonOptions(), lambda u: u)
+    kept = _newton_trip(_trip(v, image), NewtonOptions(), edge)
+    assert float(free.v[0]) < 0.0 and float(kept.v[0]) == 0.0 and float(kept.v[1]) == 0.3
+    # A failed evaluation after an update of -0.4 from 0.1: halved to -0.2, to -0.1, outside.
+    failed = _trip(jnp.asarray([-0.3, 0.3]), jnp.asarray([-0.3, 0.3]), Status.SCUFFING,
+                   it=jnp.asarray(1, jnp.int32), v_prev=jnp.asarray([0.1, 0.3]), last=jnp.asarray([-0.4, 0.0]))
+    retried = _newton_trip(failed, NewtonOptions(), edge)
+    assert int(retried.halvings) == 1 and Status(int(retried.status)) == Status.IN_PROGRESS
+    np.testing.assert_array_equal(np.asarray(retried.v), [0.0, 0.3])

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import jax
 import jax.numpy as jnp
+from jaxtyping import Array, Float
 
 from jaxwalk import mechanics
 from jaxwalk.models.flatfoot import events, forces, heel_rise
@@ -352,18 +353,24 @@ class FlatFootHeelRiseWalker(FlatFootWalker):
         _, delta = geo.chord(params)
         return jnp.stack([y[geo.THIGH_1] - delta, y[geo.THIGH_2] - delta, y[6 + geo.THIGH_1]])
 
-    def into_section(self, v, params):
-        """``v`` with ankle 2 raised to the ground where it is below it.
+    def into_section(self, v: Float[Array, "3"], params) -> Float[Array, "3"]:
+        """``v`` with ankle 2 raised to the ground where the step counts it as sunk.
 
-        Ankle 2's height is ``A (cos psi - cos psi_2)`` (both chords ``A`` long),
-        so it is below the ground where ``|psi_2| < |psi|``; there ``psi_2`` moves
-        to the nearer edge, ``-|psi|`` (``+|psi|`` if ``psi_2 > 0``), both feet flat.
-        A heel-down gait lies on that edge, and Newton's linear step towards it from
-        a heel-up side can cross it (docs/model.md, "Contacts and starts").
+        Ankle 2's height is ``A (cos psi - cos psi_2)`` (both chords ``A`` long).
+        Where it is more than :data:`heel_rise.SUNK_TOL` below the ground (a step
+        from there ends ``SCUFFING`` at its start), ``psi_2`` alone moves to the
+        nearer root of that height: ``-|psi|``, both feet flat with the trailing
+        foot behind, or ``+|psi|`` (the legs together) if ``psi_2 > 0``. Within
+        ``SUNK_TOL`` (the integrator's drift of a flat foot) and above, ``v`` is
+        returned as it is. A heel-down gait lies on the edge, and Newton's linear
+        step towards it from a heel-up side can cross it (docs/model.md,
+        "Contacts and starts").
         """
         psi, psi_2 = v[0], v[1]
+        length, _ = geo.chord(params)
+        sunk = length * (jnp.cos(psi) - jnp.cos(psi_2)) < -heel_rise.SUNK_TOL
         edge = jnp.where(psi_2 > 0.0, 1.0, -1.0) * jnp.abs(psi)
-        return v.at[1].set(jnp.where(jnp.abs(psi_2) < jnp.abs(psi), edge, psi_2))
+        return v.at[1].set(jnp.where(sunk, edge, psi_2))
 
     def initial_guess(self, params):
         """The base walker's documented gait (:meth:`FlatFootWalker.initial_guess`), both feet flat: ``psi_2 = -psi``."""
