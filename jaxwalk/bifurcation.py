@@ -70,6 +70,7 @@ class Kind(enum.IntEnum):
     LOST = 5
     BRANCH_POINT = 6
     BORDER_COLLISION = 7
+    JUMP = 8
 
 
 KIND_MEANINGS = {
@@ -81,7 +82,12 @@ KIND_MEANINGS = {
     Kind.BRANCH_POINT: "branch point: a real multiplier through +1 where the branch does not turn (branches cross)",
     Kind.BORDER_COLLISION: ("border collision: the gait goes on but its step's event sequence changes (checked: the "
                             "logged sequences differ on the two sides); the multipliers may jump there"),
+    Kind.JUMP: ("jump: a fold or flip test function changes sign with no real multiplier near +1 or -1 where it is "
+                "located, the event sequence the same on both sides: the multipliers jump (the step map is not "
+                "smooth there); no bifurcation is named"),
 }
+#: The kinds located by a real multiplier crossing the unit circle, and where it crosses.
+_CROSSING_AT = {Kind.FOLD: 1.0, Kind.BRANCH_POINT: 1.0, Kind.FLIP: -1.0}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -91,7 +97,9 @@ class BifurcationOptions:
     Attributes:
         tol: half-width of the final bracket (parameter units): the located value's accuracy.
         max_iter: root-finder iterations per bracket before ``NO_CONVERGENCE``.
-        fold_window: at a lost gait's edge, a real multiplier within this of +1 makes it a fold.
+        fold_window: at a lost gait's edge, a real multiplier within this of +1 makes it a fold;
+            a located fold, branch point or flip needs a real multiplier within it of
+            +1 or -1, else it is a :attr:`Kind.JUMP`.
     """
 
     tol: float = 1e-6
@@ -134,6 +142,21 @@ class Bifurcations(NamedTuple):
     sequence_beyond: Int[np.ndarray, "rows"]
     multipliers_beyond: Complex[np.ndarray, "rows n_v"]
     jumps: Int8[np.ndarray, "rows"]
+
+
+def _crosses(kind: Kind, mu: np.ndarray, options: "BifurcationOptions") -> bool:
+    """Whether multipliers ``mu`` located at a ``kind`` sign change have a real one
+    near where that kind crosses (+1, -1); other kinds are not checked here.
+
+    Where the test function changed sign by a jump of the multipliers (the step
+    map not smooth, with the event order unchanged: a border collision is
+    caught before), the regula falsi still closes on the jump, and no multiplier
+    is near the circle there.
+    """
+    if kind not in _CROSSING_AT:
+        return True
+    real = np.real(mu)[np.abs(np.imag(mu)) < 1e-6]
+    return bool(real.size) and float(np.min(np.abs(real - _CROSSING_AT[kind]))) < options.fold_window
 
 
 def indicators(mu: np.ndarray) -> np.ndarray:
@@ -491,7 +514,11 @@ def _shrink_signs(solve, brackets: list[dict], options: BifurcationOptions, roun
         found = st[r] == Status.OK  # a failed midpoint solve's point and multipliers are not a gait's
         if found and kind[r] == Kind.NEIMARK_SACKER and not _complex_pair_on_circle(mu_m[r]):
             continue  # a neutral saddle (real mu_i mu_j = 1), not a bifurcation of the cycle
-        out.append({"kind": kind[r], "parameter": mid[r], "line": line[r], "status": status,
+        kind_r = Kind.JUMP if found and not _crosses(kind[r], mu_m[r], options) else kind[r]
+        if kind_r == Kind.JUMP and any(o["kind"] == Kind.JUMP and o["line"] == line[r]
+                                       and abs(o["parameter"] - mid[r]) <= 2 * options.tol for o in out):
+            continue  # the fold and the flip test both change sign by the one jump
+        out.append({"kind": kind_r, "parameter": mid[r], "line": line[r], "status": status,
                     "v": v_m[r] if found else np.full_like(v_m[r], np.nan),
                     "multipliers": mu_m[r] if found else np.full_like(mu_m[r], np.nan), "beyond": Status.OK,
                     "sequences": seq[r]})

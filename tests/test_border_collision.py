@@ -60,13 +60,37 @@ def test_a_multiplier_that_jumps_across_one_is_a_border_collision_not_a_fold(mon
     assert found.multipliers[0, 0].real == pytest.approx(0.5) and found.multipliers_beyond[0, 0].real > 1.29
 
 
-def test_without_sequences_the_same_jump_reads_as_a_fold(monkeypatch):
-    """What the sequences prevent: the regula falsi closes on the jump and names a fold."""
+def test_without_sequences_the_same_jump_is_a_jump_not_a_fold(monkeypatch):
+    """Without the sequences the regula falsi closes on the jump, and the
+    located point has no multiplier near +1: a ``jump`` row, not a fold."""
     monkeypatch.setattr(bifurcation, "_evaluate", _fake(jump=0.8))
     x, status, v, mu, _ = _grid([0.0, 1.0], 0.8)
     found = locate(get_model("simplest"), {"gamma": x}, "gamma", status, v, mu, options=BifurcationOptions(tol=1e-7))
-    assert found.kind.tolist() == [Kind.FOLD] and abs(found.parameter[0] - C) < 1e-6
+    assert found.kind.tolist() == [Kind.JUMP] and abs(found.parameter[0] - C) < 1e-6
     assert abs(found.multipliers[0, 0] - 1.0) > 0.2  # no multiplier near +1 there
+
+
+@pytest.mark.parametrize("jump, kinds", [(-2.7, [Kind.JUMP]), (0.8, [Kind.JUMP]), (0.2, [Kind.FOLD])],
+                         ids=["through_minus_one", "through_plus_one", "continuous"])
+def test_a_jump_with_the_same_event_order_names_no_bifurcation(monkeypatch, jump, kinds):
+    """The multipliers jump at ``C`` with one event sequence on both sides (a
+    step map not smooth without an order change): past -1 the flip test, past
+    +1 the fold test changes sign there, and neither is named; a jump that
+    stays inside the circle and a continuous crossing of +1 after it is a fold."""
+    def same(*args):
+        status, v, mu, seq = _fake(jump)(*args)
+        return status, v, mu, np.full_like(seq, A)
+
+    monkeypatch.setattr(bifurcation, "_evaluate", same)
+    x, status, v, mu, _ = _grid([0.0, 1.0], jump)
+    seq = np.full(x.shape, A, np.int64)
+    found = locate(get_model("simplest"), {"gamma": x}, "gamma", status, v, mu, sequences=seq,
+                   options=BifurcationOptions(tol=1e-8))
+    assert found.kind.tolist() == kinds
+    if kinds == [Kind.JUMP]:
+        assert abs(found.parameter[0] - C) <= 1e-8 and found.status.tolist() == [Status.OK]
+    else:
+        assert abs(found.parameter[0] - (C + (0.5 - jump) / SLOPE)) <= 1e-8
 
 
 def test_a_continuous_crossing_beyond_the_collision_is_located_on_its_own_side(monkeypatch):

@@ -7,8 +7,9 @@ points, to 1e-6 in the continuation parameter. They are written as a table
 along a ``bifurcation`` dimension (one row per point):
 
 * ``bifurcation_kind`` int8 (CF flags: ``fold flip neimark_sacker grazing lost
-  branch_point border_collision``; a border collision is located where the
-  gaits' ``event_sequence`` changes, for models that log their events);
+  branch_point border_collision jump``; a border collision is located where the
+  gaits' ``event_sequence`` changes, for models that log their events; a jump
+  where a fold or flip test changes sign with no multiplier near +1 or -1);
 * ``bifurcation_parameter``: the continuation parameter's value;
 * ``bifurcation_<axis>`` for every other grid axis: the line's value of it;
 * ``bifurcation_line`` int32: the line's index in C order of the other axes;
