@@ -532,3 +532,32 @@ def test_a_few_outliers_do_not_take_the_whole_linear_colour_scale():
     # A nearly constant variable has no central range to keep: never clipped.
     assert linear_limits(np.array([5.0] * 12 + [4.0])) == (4.0, 5.0, "neither")
     assert linear_limits(np.array([0.0, 1.0, 10.0])) == (0.0, 10.0, "neither")
+
+
+def test_a_long_key_grows_the_figure_instead_of_squeezing_the_panels(monkeypatch):
+    """A key of four rows under two panels against one of two: with every row
+    beyond ``LEGEND_ROWS_FREE`` paid for in figure height (here all of them),
+    the panels keep their height (to 10 %); without, the longer key squeezes
+    them by more than that (what made the heel-rise sweeps' figures unreadable)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    import jaxwalk.plot.lines as lines
+
+    kinds = np.asarray([Status.FELL, Status.STALLED, Status.TIMEOUT, Status.RUNNING, Status.SHANK_RELEASING,
+                        Status.SCUFFING])
+    many = lambda u: np.where(u[0] > 0.45, kinds[np.minimum((u[1] * len(kinds)).astype(int), len(kinds) - 1)], 0)
+    few = lambda u: np.where(u[0] > 0.45, Status.FELL, 0)
+
+    def panel_height(failures):
+        ds = synthetic(GRID_3D, failures=failures)
+        fig = lines_figure(ds, "lambda_max", choose_layout(ds, "lines"))
+        FigureCanvasAgg(fig).draw()
+        (first, *_) = [ax for ax in fig.axes if ax.get_ylabel()]
+        return first.get_position().height * fig.get_size_inches()[1]
+
+    monkeypatch.setattr(lines, "LEGEND_ROWS_FREE", 0)
+    kept = panel_height(many), panel_height(few)
+    assert abs(kept[0] / kept[1] - 1.0) < 0.1, kept
+    monkeypatch.setattr(lines, "LEGEND_ROWS_FREE", 100)
+    squeezed = panel_height(many), panel_height(few)
+    assert squeezed[0] / squeezed[1] < 0.9, squeezed

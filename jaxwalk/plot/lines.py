@@ -34,6 +34,9 @@ from jaxwalk.status import Status
 MAX_CURVES = 8
 #: Group id of the stability-limit line (tests and callers find it by this).
 LIMIT_GID = "lambda_max=1"
+#: Rows of the key below the panels that the figure's own height leaves room
+#: for, and the height (inches) added for each row beyond them.
+LEGEND_ROWS_FREE, LEGEND_ROW_INCHES = 6, 0.24
 
 
 def curve_indices(n: int, max_curves: int = MAX_CURVES) -> list[int]:
@@ -121,7 +124,13 @@ def lines_figure(ds: xr.Dataset, name: str, layout: Layout):
     keys = _key_handles(ds, name, counts, unstable_any, lam_known, subset=len(picked) < n_y)
     keys += loci.legend_markers(located, unlocated)
     if keys:
-        fig.legend(handles=keys, loc="outside lower center", ncols=legend_columns(keys), fontsize="small", frameon=False)
+        columns = legend_columns(keys)
+        fig.legend(handles=keys, loc="outside lower center", ncols=columns, fontsize="small", frameon=False)
+        # The panels' height is fixed; a key longer than the room left under them
+        # would squeeze them flat (constrained layout gives the legend its rows first).
+        rows = math.ceil(len(keys) / columns)
+        width, height = fig.get_size_inches()
+        fig.set_size_inches(width, height + LEGEND_ROW_INCHES * max(0, rows - LEGEND_ROWS_FREE))
     return fig
 
 
