@@ -74,13 +74,14 @@ class _Result(NamedTuple):
 def test_no_contraction_is_measured_across_a_step_cut_to_max_update():
     """A residual whose Newton update is 10 (cut to ``max_update`` = 0.2) records no
     previous update for the next rate; one of 0.1 (not cut) records 0.1. Otherwise
-    the next update, 9.8, would be compared with 10 as if the iterate had moved by it."""
+    the next update, 9.8, would be compared with 10 as if the iterate had moved by it.
+    An update moved back into the walker's section records none either."""
     zero = jnp.zeros(())
     result = _Result(jnp.int8(Status.OK), zero, zero, zero, jnp.int32(0), jnp.int32(0), jnp.int32(0), jnp.int32(0),
                      jnp.zeros(2), jnp.zeros(1))
 
-    def carry_after(offset):
-        body = _newton_iteration(lambda v: (v - offset, result), RATE, jnp.eye(2))
+    def carry_after(offset, into_section=lambda v: v):
+        body = _newton_iteration(lambda v: (v - offset, result), RATE, jnp.eye(2), into_section)
         nan, i0 = jnp.full((), jnp.nan), jnp.zeros((), jnp.int32)
         carry = _Newton(jnp.zeros(2), i0, jnp.int8(Status.IN_PROGRESS), jnp.asarray(False), jnp.full((2, 2), nan), nan,
                         nan, nan, i0, i0, i0 - 1, i0 - 1, jnp.zeros(2), jnp.zeros(1), jnp.asarray(False), i0,
@@ -92,3 +93,7 @@ def test_no_contraction_is_measured_across_a_step_cut_to_max_update():
     assert np.isinf(float(cut.last_update))
     np.testing.assert_allclose(whole.v, [0.1, 0.1])
     assert float(whole.last_update) == pytest.approx(0.1)
+    # Moved back into a section (here v <= 0.05) it did not go where Newton sent it either.
+    kept = carry_after(0.1, lambda v: jnp.minimum(v, 0.05))
+    np.testing.assert_allclose(kept.v, [0.05, 0.05])
+    assert np.isinf(float(kept.last_update))
