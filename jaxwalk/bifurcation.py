@@ -26,7 +26,9 @@ its multipliers may jump: that point is located as a **border collision**
 (:mod:`jaxwalk.border_collision`), and the test functions' sign changes are
 sought only between gaits of one sequence; a sign that changes across the
 collision is reported with it (``jumps``), not as a fold, flip or
-Neimark-Sacker point.
+Neimark-Sacker point. A sign change that closes where nothing is near the
+unit circle (the multipliers jump with no order change found) is a **jump**
+row (:func:`_crosses`), not a bifurcation.
 
 Each test-function bracket (two neighbouring grid points with opposite signs)
 is shrunk by the Illinois variant of regula falsi, one Newton re-solve of the
@@ -82,12 +84,12 @@ KIND_MEANINGS = {
     Kind.BRANCH_POINT: "branch point: a real multiplier through +1 where the branch does not turn (branches cross)",
     Kind.BORDER_COLLISION: ("border collision: the gait goes on but its step's event sequence changes (checked: the "
                             "logged sequences differ on the two sides); the multipliers may jump there"),
-    Kind.JUMP: ("jump: a fold or flip test function changes sign with no real multiplier near +1 or -1 where it is "
-                "located, the event sequence the same on both sides: the multipliers jump (the step map is not "
-                "smooth there); no bifurcation is named"),
+    Kind.JUMP: ("jump: a fold, flip or Neimark-Sacker test function changes sign where no multiplier (pair) is near "
+                "the unit circle's crossing, with no event-order change found on its two sides (or none logged): the "
+                "multipliers jump (the step map is not smooth there); no bifurcation is named"),
 }
-#: The kinds located by a real multiplier crossing the unit circle, and where it crosses.
-_CROSSING_AT = {Kind.FOLD: 1.0, Kind.BRANCH_POINT: 1.0, Kind.FLIP: -1.0}
+#: Where a multiplier crosses the unit circle at a fold and at a flip.
+_CROSSING_AT = {Kind.FOLD: 1.0, Kind.FLIP: -1.0}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -98,8 +100,9 @@ class BifurcationOptions:
         tol: half-width of the final bracket (parameter units): the located value's accuracy.
         max_iter: root-finder iterations per bracket before ``NO_CONVERGENCE``.
         fold_window: at a lost gait's edge, a real multiplier within this of +1 makes it a fold;
-            a located fold, branch point or flip needs a real multiplier within it of
-            +1 or -1, else it is a :attr:`Kind.JUMP`.
+            a located fold, flip or Neimark-Sacker point needs a multiplier within it of
+            +1 or -1 (a pair whose product is within it of 1), else it is a
+            :attr:`Kind.JUMP`.
     """
 
     tol: float = 1e-6
@@ -145,18 +148,21 @@ class Bifurcations(NamedTuple):
 
 
 def _crosses(kind: Kind, mu: np.ndarray, options: "BifurcationOptions") -> bool:
-    """Whether multipliers ``mu`` located at a ``kind`` sign change have a real one
-    near where that kind crosses (+1, -1); other kinds are not checked here.
+    """Whether multipliers ``mu`` located at a ``kind`` sign change are near where
+    that kind crosses the unit circle, within ``fold_window``: one near +1 (fold),
+    -1 (flip), a pair whose product is near 1 (Neimark-Sacker).
 
     Where the test function changed sign by a jump of the multipliers (the step
     map not smooth, with the event order unchanged: a border collision is
-    caught before), the regula falsi still closes on the jump, and no multiplier
-    is near the circle there.
+    caught before), the regula falsi still closes on the jump, and nothing is
+    near the circle there. (Two multipliers meeting at +1 are complex on one
+    side, so no realness is asked.)
     """
-    if kind not in _CROSSING_AT:
-        return True
-    real = np.real(mu)[np.abs(np.imag(mu)) < 1e-6]
-    return bool(real.size) and float(np.min(np.abs(real - _CROSSING_AT[kind]))) < options.fold_window
+    mu = np.asarray(mu, np.complex128)
+    if kind == Kind.NEIMARK_SACKER:
+        i, j = np.triu_indices(mu.shape[-1], 1)
+        return bool(i.size) and float(np.min(np.abs(mu[i] * mu[j] - 1.0))) < options.fold_window
+    return float(np.min(np.abs(mu - _CROSSING_AT[kind]), initial=np.inf)) < options.fold_window
 
 
 def indicators(mu: np.ndarray) -> np.ndarray:
@@ -514,7 +520,9 @@ def _shrink_signs(solve, brackets: list[dict], options: BifurcationOptions, roun
         found = st[r] == Status.OK  # a failed midpoint solve's point and multipliers are not a gait's
         if found and kind[r] == Kind.NEIMARK_SACKER and not _complex_pair_on_circle(mu_m[r]):
             continue  # a neutral saddle (real mu_i mu_j = 1), not a bifurcation of the cycle
-        kind_r = Kind.JUMP if found and not _crosses(kind[r], mu_m[r], options) else kind[r]
+        # Checked only where the bracket closed: an unlocated row's midpoint need not be near anything.
+        closed = found and state[r] == Status.OK
+        kind_r = Kind.JUMP if closed and not _crosses(kind[r], mu_m[r], options) else kind[r]
         if kind_r == Kind.JUMP and any(o["kind"] == Kind.JUMP and o["line"] == line[r]
                                        and abs(o["parameter"] - mid[r]) <= 2 * options.tol for o in out):
             continue  # the fold and the flip test both change sign by the one jump

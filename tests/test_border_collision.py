@@ -323,3 +323,32 @@ def test_a_sign_change_whose_last_solve_fails_is_kept_unlocated_with_no_multipli
     found = _run(monkeypatch, _FailingCall(first, complex_pair, fail_at=clean.calls), [0.0, 1.0], tol=1e-6)
     assert found.kind.tolist() == [kind] and found.status.tolist() == [Status.STALLED]
     assert np.isnan(found.multipliers).all() and np.isnan(found.v).all()
+
+
+def test_an_unlocated_fold_keeps_its_kind(monkeypatch):
+    """A smooth crossing of +1 at 0.25 whose first regula falsi trial (there)
+    fails: the bracket never closes, its row stays an unlocated fold, not a
+    jump (the midpoint of an open bracket need not be near +1)."""
+    def failing_first_trial(model, k, solver, newton, params, v0):
+        x = np.asarray(params["gamma"], np.float64)
+        mu = 0.5 + 2.0 * x
+        status = np.where(np.abs(x - 0.25) < 1e-3, np.int8(Status.NO_CONVERGENCE), np.int8(Status.OK))
+        return (status, np.stack([x, x], 1), np.stack([mu, 0.1 + 0 * x], 1).astype(np.complex128),
+                np.full((len(x), 1), A, np.int64))
+
+    monkeypatch.setattr(bifurcation, "_evaluate", failing_first_trial)
+    x = np.array([[0.0, 1.0]])
+    _, v, mu, seq = failing_first_trial(None, 1, None, None, {"gamma": x[0]}, None)
+    found = locate(get_model("simplest"), {"gamma": x}, "gamma", np.zeros((1, 2), np.int8), v[None], mu[None],
+                   sequences=seq[None, :, 0])
+    assert found.kind.tolist() == [Kind.FOLD] and found.status.tolist() == [Status.NO_CONVERGENCE]
+
+
+def test_a_complex_pair_that_jumps_across_the_circle_is_a_jump():
+    """The Neimark-Sacker test changes sign by a pair jumping from modulus 0.8 to
+    1.3: no pair's product is near 1 where it is located."""
+    mu = 0.8 * np.exp(1j * np.array([0.7, -0.7]))
+    assert bifurcation._crosses(Kind.NEIMARK_SACKER, mu / 0.8, BifurcationOptions())
+    assert not bifurcation._crosses(Kind.NEIMARK_SACKER, 1.3 * mu / 0.8, BifurcationOptions())
+    # Two multipliers meeting at +1 are complex on one side of the fold: still a fold.
+    assert bifurcation._crosses(Kind.FOLD, np.array([1 + 5e-4j, 1 - 5e-4j]), BifurcationOptions())

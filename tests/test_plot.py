@@ -561,3 +561,18 @@ def test_a_long_key_grows_the_figure_instead_of_squeezing_the_panels(monkeypatch
     monkeypatch.setattr(lines, "LEGEND_ROWS_FREE", 100)
     squeezed = panel_height(many), panel_height(few)
     assert squeezed[0] / squeezed[1] < 0.9, squeezed
+
+
+def test_a_key_of_six_rows_or_fewer_leaves_the_figure_size_as_before():
+    """What keeps every figure with a short key (the quickstart's) bit for bit:
+    the size is the layout's own while the key has at most ``LEGEND_ROWS_FREE`` rows."""
+    import jaxwalk.plot.lines as lines
+
+    kinds = np.asarray([Status.FELL, Status.STALLED, Status.TIMEOUT, Status.RUNNING, Status.SHANK_RELEASING,
+                        Status.SCUFFING])
+    ds = synthetic(GRID_3D, failures=lambda u: np.where(u[0] > 0.45, kinds[np.minimum((u[1] * 6).astype(int), 5)], 0))
+    fig = lines_figure(ds, "lambda_max", choose_layout(ds, "lines"))
+    key = fig.legends[-1]
+    rows = -(-len(key.get_texts()) // key._ncols)
+    assert rows <= lines.LEGEND_ROWS_FREE
+    np.testing.assert_allclose(fig.get_size_inches(), [3.6 * 3 + 2.4, 3.0 + 1.4], rtol=1e-12)  # three panels, one row

@@ -9,7 +9,8 @@ along a ``bifurcation`` dimension (one row per point):
 * ``bifurcation_kind`` int8 (CF flags: ``fold flip neimark_sacker grazing lost
   branch_point border_collision jump``; a border collision is located where the
   gaits' ``event_sequence`` changes, for models that log their events; a jump
-  where a fold or flip test changes sign with no multiplier near +1 or -1);
+  where a fold, flip or Neimark-Sacker test changes sign with nothing near the
+  unit circle where its bracket closed);
 * ``bifurcation_parameter``: the continuation parameter's value;
 * ``bifurcation_<axis>`` for every other grid axis: the line's value of it;
 * ``bifurcation_line`` int32: the line's index in C order of the other axes;

@@ -45,7 +45,7 @@ STYLES: dict[str, tuple[object, str, str]] = {
     "lost": (":", "x", "gait lost (no fixed point beyond)"),
     "branch_point": ("", "P", "branch point (multiplier +1)"),
     "border_collision": ((0, (4, 1, 1, 1, 1, 1)), "v", "border collision (event order changes)"),  # dash-dot-dot
-    "jump": ("", "*", "multipliers jump (same event order)"),
+    "jump": ("", "*", "multipliers jump (no bifurcation)"),
 }
 #: Style of a kind this version does not know.
 OTHER_STYLE = (":", "o", "")
