@@ -124,14 +124,20 @@ def lines_figure(ds: xr.Dataset, name: str, layout: Layout):
     keys = _key_handles(ds, name, counts, unstable_any, lam_known, subset=len(picked) < n_y)
     keys += loci.legend_markers(located, unlocated)
     if keys:
-        columns = legend_columns(keys)
-        fig.legend(handles=keys, loc="outside lower center", ncols=columns, fontsize="small", frameon=False)
-        # The panels' height is fixed; a key longer than the room left under them
-        # would squeeze them flat (constrained layout gives the legend its rows first).
-        rows = math.ceil(len(keys) / columns)
-        width, height = fig.get_size_inches()
-        fig.set_size_inches(width, height + LEGEND_ROW_INCHES * max(0, rows - LEGEND_ROWS_FREE))
+        _bottom_key(fig, keys)
     return fig
+
+
+def _bottom_key(fig, keys: list) -> None:
+    """The key of markers and statuses under the panels, the figure made taller
+    for each of its rows beyond :data:`LEGEND_ROWS_FREE`: the panels' height is
+    fixed, and constrained layout gives the key its rows first, so a long key
+    would squeeze them flat."""
+    columns = legend_columns(keys)
+    fig.legend(handles=keys, loc="outside lower center", ncols=columns, fontsize="small", frameon=False)
+    rows = math.ceil(len(keys) / columns)
+    width, height = fig.get_size_inches()
+    fig.set_size_inches(width, height + LEGEND_ROW_INCHES * max(0, rows - LEGEND_ROWS_FREE))
 
 
 def _panel(ax, strip, view: xr.Dataset, name: str, layout: Layout, picked, colors, lam_known: bool, counts: dict[int, int]) -> dict:
