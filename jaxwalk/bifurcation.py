@@ -26,9 +26,9 @@ its multipliers may jump: that point is located as a **border collision**
 (:mod:`jaxwalk.border_collision`), and the test functions' sign changes are
 sought only between gaits of one sequence; a sign that changes across the
 collision is reported with it (``jumps``), not as a fold, flip or
-Neimark-Sacker point. A sign change that closes where nothing is near the
-unit circle (the multipliers jump with no order change found) is a **jump**
-row (:func:`_crosses`), not a bifurcation.
+Neimark-Sacker point. A sign change whose bracket closes with nothing near
+the unit circle's crossing at one of its two ends (the multipliers jump with
+no order change found) is a **jump** row (:func:`_crosses`), not a bifurcation.
 
 Each test-function bracket (two neighbouring grid points with opposite signs)
 is shrunk by the Illinois variant of regula falsi, one Newton re-solve of the
@@ -90,6 +90,8 @@ KIND_MEANINGS = {
 }
 #: Where a multiplier crosses the unit circle at a fold and at a flip.
 _CROSSING_AT = {Kind.FOLD: 1.0, Kind.FLIP: -1.0}
+#: Each test function's bit in a row's ``jumps`` mask (as :func:`jaxwalk.border_collision.jumps`).
+_TEST_BIT = {Kind.FOLD: 1, Kind.FLIP: 2, Kind.NEIMARK_SACKER: 4}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -101,8 +103,8 @@ class BifurcationOptions:
         max_iter: root-finder iterations per bracket before ``NO_CONVERGENCE``.
         fold_window: at a lost gait's edge, a real multiplier within this of +1 makes it a fold;
             a located fold, flip or Neimark-Sacker point needs a multiplier within it of
-            +1 or -1 (a pair whose product is within it of 1), else it is a
-            :attr:`Kind.JUMP`.
+            +1 or -1 (a pair whose product is within it of 1) at both ends of its
+            closed bracket, else it is a :attr:`Kind.JUMP`.
     """
 
     tol: float = 1e-6
@@ -122,15 +124,16 @@ class Bifurcations(NamedTuple):
             midpoint, not to ``tol``): ``NO_CONVERGENCE`` also where a sign change's
             bracket met a third event sequence inside (two collisions between grid points).
         v: ``(n_v,)`` the cycle's point at the located parameter (on the gait's side for
-            edges, on the lower parameter's side for border collisions).
+            edges, on the lower parameter's side for border collisions and jumps).
         multipliers: ``(n_v,)`` complex, there.
         beyond: int8 status of the failure beyond an edge (``OK`` for sign changes).
         sequence: int64 sequence code of the cycle's first step there (:mod:`jaxwalk.event_log`;
             0 where the model logs none).
         sequence_beyond: int64, a border collision's sequence on its higher parameter's side (0 for the others).
-        multipliers_beyond: ``(n_v,)`` complex, a border collision's multipliers there (NaN for the others).
+        multipliers_beyond: ``(n_v,)`` complex, a border collision's or a jump's multipliers on its
+            higher parameter's side (NaN for the others).
         jumps: int8 bit mask of the test functions whose sign changes across a border
-            collision (fold 1, flip 2, Neimark-Sacker 4; 0 for the others).
+            collision or a jump (fold 1, flip 2, Neimark-Sacker 4; 0 for the others).
     """
 
     kind: Int8[np.ndarray, "rows"]
@@ -389,7 +392,8 @@ def _sign_brackets(line, i, lo: dict, hi: dict, skip: tuple = ()) -> list[dict]:
     for kind, column in ((Kind.FOLD, 0), (Kind.FLIP, 1), (Kind.NEIMARK_SACKER, 2)):
         if kind not in skip and np.sign(t_lo[column]) * np.sign(t_hi[column]) < 0:
             out.append({"kind": kind, "column": column, "line": line, "i": i, "lo": lo["x"], "hi": hi["x"],
-                        "f_lo": t_lo[column], "f_hi": t_hi[column], "v_lo": lo["v"], "v_hi": hi["v"], "sequences": lo["s"]})
+                        "f_lo": t_lo[column], "f_hi": t_hi[column], "v_lo": lo["v"], "v_hi": hi["v"],
+                        "mu_lo": lo["mu"], "mu_hi": hi["mu"], "sequences": lo["s"]})
     return out
 
 
@@ -478,6 +482,7 @@ def _shrink_signs(solve, brackets: list[dict], options: BifurcationOptions, roun
     kind, column, line, i = get("kind"), get("column"), get("line"), get("i")
     lo, hi, f_lo, f_hi = get("lo").astype(float), get("hi").astype(float), get("f_lo"), get("f_hi")
     v_lo, v_hi, seq = get("v_lo"), get("v_hi"), get("sequences")
+    mu_lo, mu_hi = get("mu_lo").astype(np.complex128), get("mu_hi").astype(np.complex128)
     state = np.full(len(brackets), Status.IN_PROGRESS, np.int8)
     side = np.zeros(len(brackets), np.int8)  # which end was kept last (Illinois halves its value when kept twice)
     for it in range(options.max_iter):
@@ -502,11 +507,11 @@ def _shrink_signs(solve, brackets: list[dict], options: BifurcationOptions, roun
         same_lo = np.sign(f_t) == np.sign(f_lo[good])
         for j, g in enumerate(good):
             if same_lo[j]:
-                lo[g], f_lo[g], v_lo[g] = trial[g], f_t[j], v_t[~failed][j]
+                lo[g], f_lo[g], v_lo[g], mu_lo[g] = trial[g], f_t[j], v_t[~failed][j], mu[~failed][j]
                 f_hi[g] *= 0.5 if side[g] == 1 else 1.0
                 side[g] = 1
             else:
-                hi[g], f_hi[g], v_hi[g] = trial[g], f_t[j], v_t[~failed][j]
+                hi[g], f_hi[g], v_hi[g], mu_hi[g] = trial[g], f_t[j], v_t[~failed][j], mu[~failed][j]
                 f_lo[g] *= 0.5 if side[g] == -1 else 1.0
                 side[g] = -1
     state[state == Status.IN_PROGRESS] = Status.NO_CONVERGENCE
@@ -514,20 +519,41 @@ def _shrink_signs(solve, brackets: list[dict], options: BifurcationOptions, roun
     rounds.advance(signs=True)
     mid = 0.5 * (lo + hi)
     st, v_m, mu_m, _ = solve(mid, line, i, 0.5 * (v_lo + v_hi))
+    ends = {"v_lo": v_lo, "mu_lo": mu_lo, "mu_hi": mu_hi}
+    return _sign_rows(brackets, state, mid, st, v_m, mu_m, ends, options)
+
+
+def _sign_rows(brackets, state, mid, st, v_m, mu_m, ends: dict, options: BifurcationOptions) -> list[dict]:
+    """The table rows of the shrunk sign-change brackets: each located at its
+    midpoint ``mid`` (re-solved there: ``st``, ``v_m``, ``mu_m``), a
+    :attr:`Kind.JUMP` where the bracket closed but the multipliers at either of
+    its ends (``ends``: ``mu_lo``, ``mu_hi``, and ``v_lo``) are not near the
+    crossing (:func:`_crosses`); a jump row carries its lower end's gait and
+    its upper end's multipliers (``multipliers_beyond``), and ``jumps``: the
+    test functions whose sign changes by it (one jump may change two)."""
     out = []
-    for r in range(len(brackets)):
+    for r, b in enumerate(brackets):
+        kind = b["kind"]
         status = state[r] if state[r] != Status.OK else st[r]
         found = st[r] == Status.OK  # a failed midpoint solve's point and multipliers are not a gait's
-        if found and kind[r] == Kind.NEIMARK_SACKER and not _complex_pair_on_circle(mu_m[r]):
+        if found and kind == Kind.NEIMARK_SACKER and not _complex_pair_on_circle(mu_m[r]):
             continue  # a neutral saddle (real mu_i mu_j = 1), not a bifurcation of the cycle
-        # Checked only where the bracket closed: an unlocated row's midpoint need not be near anything.
-        closed = found and state[r] == Status.OK
-        kind_r = Kind.JUMP if closed and not _crosses(kind[r], mu_m[r], options) else kind[r]
-        if kind_r == Kind.JUMP and any(o["kind"] == Kind.JUMP and o["line"] == line[r]
-                                       and abs(o["parameter"] - mid[r]) <= 2 * options.tol for o in out):
-            continue  # the fold and the flip test both change sign by the one jump
-        out.append({"kind": kind_r, "parameter": mid[r], "line": line[r], "status": status,
+        # Checked only where the bracket closed (both ends solved gaits within 2 tol): an unlocated
+        # row's ends need not be near anything. Both ends, not the midpoint alone: a jump from just
+        # inside the window to far outside it has one side near the crossing.
+        closed = state[r] == Status.OK
+        if closed and not (_crosses(kind, ends["mu_lo"][r], options) and _crosses(kind, ends["mu_hi"][r], options)):
+            twin = next((o for o in out if o["kind"] == Kind.JUMP and o["line"] == b["line"]
+                         and abs(o["parameter"] - mid[r]) <= 2 * options.tol), None)
+            if twin is not None:  # the fold and the flip test both change sign by the one jump
+                twin["jumps"] |= _TEST_BIT[kind]
+                continue
+            out.append({"kind": Kind.JUMP, "parameter": mid[r], "line": b["line"], "status": state[r],
+                        "v": ends["v_lo"][r], "multipliers": ends["mu_lo"][r], "beyond": Status.OK,
+                        "sequences": b["sequences"], "multipliers_beyond": ends["mu_hi"][r], "jumps": _TEST_BIT[kind]})
+            continue
+        out.append({"kind": kind, "parameter": mid[r], "line": b["line"], "status": status,
                     "v": v_m[r] if found else np.full_like(v_m[r], np.nan),
                     "multipliers": mu_m[r] if found else np.full_like(mu_m[r], np.nan), "beyond": Status.OK,
-                    "sequences": seq[r]})
+                    "sequences": b["sequences"]})
     return out

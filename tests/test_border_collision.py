@@ -352,3 +352,57 @@ def test_a_complex_pair_that_jumps_across_the_circle_is_a_jump():
     assert not bifurcation._crosses(Kind.NEIMARK_SACKER, 1.3 * mu / 0.8, BifurcationOptions())
     # Two multipliers meeting at +1 are complex on one side of the fold: still a fold.
     assert bifurcation._crosses(Kind.FOLD, np.array([1 + 5e-4j, 1 - 5e-4j]), BifurcationOptions())
+
+
+def _stepped(mu_below, mu_above):
+    """A re-solve (one event sequence) whose multipliers step from ``mu_below`` to
+    ``mu_above`` at ``C``, constant on either side."""
+
+    def evaluate(model, k, solver, newton, params, v0):
+        x = np.asarray(params["gamma"], np.float64)
+        mu = np.where((x < C)[:, None], np.asarray(mu_below, np.complex128), np.asarray(mu_above, np.complex128))
+        return (np.zeros(len(x), np.int8), np.stack([x, np.zeros_like(x)], 1), mu,
+                np.full((len(x), 1), A, np.int64))
+
+    return evaluate
+
+
+@pytest.mark.parametrize("below, above", [([0.97, 0.1], [1.5, 0.1]), ([1.5, 0.1], [0.97, 0.1]),
+                                          ([-0.97, 0.1], [-1.5, 0.1]), ([-1.5, 0.1], [-0.97, 0.1])],
+                         ids=["fold_up", "fold_down", "flip_out", "flip_in"])
+def test_a_jump_with_one_side_near_the_crossing_is_still_a_jump(monkeypatch, below, above):
+    """The multiplier jumps from 0.03 inside the window around the crossing to
+    0.5 outside it: whichever side the bracket's midpoint falls on, the row is
+    a jump (both ends are read), carrying the lower side's multipliers and the
+    upper side's as ``multipliers_beyond``."""
+    monkeypatch.setattr(bifurcation, "_evaluate", _stepped(below, above))
+    x = np.array([[0.0, 1.0]])
+    _, v, mu, seq = _stepped(below, above)(None, 1, None, None, {"gamma": x[0]}, None)
+    found = locate(get_model("simplest"), {"gamma": x}, "gamma", np.zeros((1, 2), np.int8), v[None], mu[None],
+                   sequences=seq[None, :, 0], options=BifurcationOptions(tol=1e-8))
+    assert found.kind.tolist() == [Kind.JUMP] and found.status.tolist() == [Status.OK]
+    assert abs(found.parameter[0] - C) <= 1e-8
+    np.testing.assert_array_equal(found.multipliers[0], np.asarray(below, np.complex128))
+    np.testing.assert_array_equal(found.multipliers_beyond[0], np.asarray(above, np.complex128))
+    assert found.jumps.tolist() == [1 if below[0] > 0 else 2]
+
+
+def test_one_jump_that_changes_two_tests_is_one_row_with_both_bits(monkeypatch):
+    """A multiplier jumps from 0.5 to 1.5 and another from 0.2 to -1.6 at ``C``:
+    the fold and the flip tests both change sign there, by one jump."""
+    monkeypatch.setattr(bifurcation, "_evaluate", _stepped([0.5, 0.2], [1.5, -1.6]))
+    x = np.array([[0.0, 1.0]])
+    _, v, mu, seq = _stepped([0.5, 0.2], [1.5, -1.6])(None, 1, None, None, {"gamma": x[0]}, None)
+    found = locate(get_model("simplest"), {"gamma": x}, "gamma", np.zeros((1, 2), np.int8), v[None], mu[None],
+                   sequences=seq[None, :, 0], options=BifurcationOptions(tol=1e-8))
+    assert found.kind.tolist() == [Kind.JUMP] and found.jumps.tolist() == [3]
+
+
+def test_a_continuous_crossing_has_no_jump_columns(monkeypatch):
+    """A smooth fold row keeps NaN ``multipliers_beyond`` and ``jumps`` 0."""
+    monkeypatch.setattr(bifurcation, "_evaluate", _fake(jump=0.2))
+    x, status, v, mu, seq = _grid([0.0, 1.0], 0.2)
+    found = locate(get_model("simplest"), {"gamma": x}, "gamma", status, v, mu,
+                   options=BifurcationOptions(tol=1e-8))
+    fold = found.kind == Kind.FOLD
+    assert fold.sum() == 1 and found.jumps[fold][0] == 0 and np.isnan(found.multipliers_beyond[fold]).all()
