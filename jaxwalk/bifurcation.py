@@ -479,7 +479,7 @@ def _shrink_signs(solve, brackets: list[dict], options: BifurcationOptions, roun
         rounds.no_signs()
         return []
     get = lambda key: np.array([b[key] for b in brackets])
-    kind, column, line, i = get("kind"), get("column"), get("line"), get("i")
+    column, line, i = get("column"), get("line"), get("i")
     lo, hi, f_lo, f_hi = get("lo").astype(float), get("hi").astype(float), get("f_lo"), get("f_hi")
     v_lo, v_hi, seq = get("v_lo"), get("v_hi"), get("sequences")
     mu_lo, mu_hi = get("mu_lo").astype(np.complex128), get("mu_hi").astype(np.complex128)
