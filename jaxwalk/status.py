@@ -36,6 +36,7 @@ class Status(enum.IntEnum):
     NOT_RETURNED = 17
     UNSTABLE_GAIT = 18
     FOOT_ROLLING = 19
+    NOT_A_STATE = 20
     IN_PROGRESS = 127  # internal: a step still running; never written to a dataset
 
 
@@ -68,6 +69,10 @@ STATUS_MEANINGS: dict[Status, str] = {
     Status.UNSTABLE_GAIT: "the period-1 gait is unstable and no attractor of it is known: no basin to measure",
     Status.FOOT_ROLLING: (
         "foot rolling: the flat stance foot's centre of pressure left the foot (it would tip onto its heel or toe)"
+    ),
+    Status.NOT_A_STATE: (
+        "not a state: a perturbed start outside the walker's states (the model's into_section moves it, e.g. a "
+        "flat foot below the ground); not walked, and left out of the basin's counts"
     ),
     Status.IN_PROGRESS: "internal: step in progress",
 }

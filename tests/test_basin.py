@@ -155,6 +155,43 @@ def test_one_fate_agrees_with_the_scipy_walker(gait, direct):
     assert info["status"] != "ok"
 
 
+class _HalfSection(type(get_model("simplest"))):
+    """The simplest walker with only ``alpha_1 >= HALF_AT`` as its states (a stand-in for
+    a section with an edge, as the heel-rise walker's), the rest moved onto the edge."""
+
+    name = "simplest_half_section"
+    half_at = None  # set by the test: the gait's alpha_1
+
+    def into_section(self, v, params):
+        return v.at[0].set(jnp.maximum(v[0], self.half_at))
+
+
+def test_starts_that_are_not_states_are_named_and_left_out(gait, measured):
+    """With half the ball outside the walker's states, those starts are
+    ``not_a_state`` (exactly the offsets below the edge), every other start's
+    fate is the full section's, the fraction counts states only, and a ray that
+    leaves the states at once meets no failure."""
+    from jaxwalk.global_stability.basin import ray_directions, unit_ball
+
+    model, params, v_star = gait
+    half = _HalfSection()
+    half.half_at = float(v_star[0])
+    got = jax.jit(lambda p, v: basin(half, p, v, v[None], OPTIONS))(params, jnp.asarray(v_star))
+    status, full = np.asarray(got.sample_status), np.asarray(measured.sample_status)
+    outside = unit_ball(2, OPTIONS.samples, OPTIONS.seed)[:, 0] < 0
+    assert 0.3 < outside.mean() < 0.7
+    np.testing.assert_array_equal(status == Status.NOT_A_STATE, outside)
+    np.testing.assert_array_equal(status[~outside], full[~outside])
+    states = (~outside).sum()
+    f = (status == Status.OK).sum() / states
+    assert float(got.fraction) == f and abs(float(got.fraction_error) - np.sqrt(f * (1 - f) / states)) < 1e-12
+    leaves = ray_directions(2, OPTIONS.directions, OPTIONS.seed)[:, 0] < 0
+    ray, ray_full = np.asarray(got.ray_radius), np.asarray(measured.ray_radius)
+    np.testing.assert_array_equal(ray[leaves], OPTIONS.radius)
+    np.testing.assert_array_equal(ray[~leaves], ray_full[~leaves])
+    assert (ray_full[leaves] < OPTIONS.radius).any(), "no ray that leaves the states would have failed"
+
+
 def test_analysis_defaults_are_the_measure_defaults():
     import dataclasses
 

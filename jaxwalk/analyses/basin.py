@@ -7,10 +7,11 @@ settings, runs it on a block's gaits and declares its outputs (grid shape ``S``)
 * ``basin_status`` ``S``, int8 with CF flag attributes: 0 where measured; the
   gait's status where there is no gait; ``unstable_gait`` (18) where the gait is
   unstable and no attractor of it is known (``[analysis] attractors`` off), or the
-  attractor search's status where it found none;
+  attractor search's status where it found none; ``not_a_state`` (20) where no
+  start of the ball is a state of the walker;
 * ``basin_fraction``, ``basin_fraction_error`` ``S``: share of the ball's random
-  starts that returned to the gait's cycle within ``steps`` steps, and its binomial
-  standard error;
+  starts that are states of the walker which returned to the gait's cycle within
+  ``steps`` steps, and its binomial standard error;
 * ``basin_radius`` ``S`` and ``basin_ray_radius`` ``S + (direction,)``: the
   smallest ray radius, and each ray's (scaled norm, dimensionless).
 
@@ -72,14 +73,15 @@ def _attrs(resolved, units) -> dict[str, Any]:
 OUTPUTS = (
     Output("basin_status", "int8", (
         "outcome of the basin measure (0: measured; the gait's status where there is no gait; unstable_gait where "
-        "the gait is unstable and no attractor of it is known; the attractor search's status where it found none)"
+        "the gait is unstable and no attractor of it is known; the attractor search's status where it found none; "
+        "not_a_state where no start of the ball is a state of the walker)"
     ), units=None, flags=True),
     Output("basin_fraction", "float64", (
-        "share of random starts uniform in a ball about the fixed point (scaled section norm) that return "
-        "to within tol of the gait's cycle in at most steps steps"
+        "share of random starts uniform in a ball about the fixed point (scaled section norm), of those that are "
+        "states of the walker, that return to within tol of the gait's cycle in at most steps steps"
     ), label="basin fraction", meaning="share of perturbed starts that return to the gait", plot=45,
         finite_where_ok=True, attrs=_attrs),
-    Output("basin_fraction_error", "float64", "binomial standard error of basin_fraction, sqrt(f (1 - f) / samples)",
+    Output("basin_fraction_error", "float64", "binomial standard error of basin_fraction, sqrt(f (1 - f) / n), n the starts that are states",
            finite_where_ok=True),
     Output("basin_radius", "float64", (
         "radius of the largest ball about the fixed point inside the basin as the rays see it: the smallest "
@@ -88,7 +90,8 @@ OUTPUTS = (
         finite_where_ok=True, attrs=_attrs),
     Output("basin_ray_radius", "float64", (
         "along each ray from the fixed point, the largest radius confirmed to return before the first failing "
-        "one (scaled section norm; radius itself where no scanned start failed, a lower bound)"
+        "one (scaled section norm; radius itself where no scanned start failed, a lower bound; a start that is "
+        "not a state of the walker is no failure)"
     ), trailing=("direction",), finite_where_ok=True),
 )
 
@@ -213,6 +216,9 @@ class BasinAnalysis(Analysis):
                               ("basin_radius", "radius"), ("basin_ray_radius", "ray_radius")):
                 flat = out[key].reshape((-1,) + out[key].shape[len(shape):])
                 flat[where] = np.asarray(getattr(found, name))
+            # No start of the ball is a state (only NaN fraction the measure gives): say so, not "nonfinite".
+            no_states = where[np.all(np.asarray(found.sample_status) == Status.NOT_A_STATE, axis=-1)]
+            out["basin_status"].reshape(-1)[no_states] = Status.NOT_A_STATE
         return out
 
     def outputs(self, resolved=None) -> tuple[Output, ...]:

@@ -76,7 +76,7 @@ def _fate_program(model, options, solver):
 
     from jaxwalk import program_cache
     from jaxwalk.batching import Rows
-    from jaxwalk.global_stability.basin import cycle_distance, fate_of
+    from jaxwalk.global_stability.basin import cycle_distance, fate_of, is_state
     from jaxwalk.global_stability.walks import pooled_walks
 
     # Starts near the basin's edge walk many steps, most return in a few: each
@@ -87,7 +87,9 @@ def _fate_program(model, options, solver):
         end = pooled_walks(model, rows.params, start.v, jnp.full(n, options.steps, jnp.int32), model.lockstep_batch,
                            stop=lambda i, v: cycle_distance(v, start.target[i][None], start.scale[i]) < options.tol,
                            valid=rows.valid, solver=solver)
-        return jax.vmap(lambda e, target, scale: fate_of(e, target[None], scale))(end, start.target, start.scale)
+        fates = jax.vmap(lambda e, target, scale: fate_of(e, target[None], scale))(end, start.target, start.scale)
+        state = jax.vmap(lambda v, p: is_state(model, v, p))(start.v, rows.params)
+        return fates._replace(status=jnp.where(state, fates.status, jnp.int8(Status.NOT_A_STATE)))
 
     program = compiling.jit(program, model)
     program_cache.register(program, "basin_fate", model, options, solver)

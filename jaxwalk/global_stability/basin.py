@@ -11,7 +11,12 @@ loop) for at most ``steps`` steps. Its fate:
 * **failed**: a step failed first; the failing step's status (``FELL``,
   ``SCUFFING``, ...);
 * **not returned** (``NOT_RETURNED``): ``steps`` steps walked, never within
-  ``tol`` (a slower return, another attractor, or none).
+  ``tol`` (a slower return, another attractor, or none);
+* **not a state** (``NOT_A_STATE``): the start is not a state of the walker
+  (:meth:`Walker.into_section` moves it: the heel-rise walker's trailing foot
+  below the ground, next to a heel-down gait on the section's edge); its walk's
+  outcome is not read, and it counts neither as returned nor as failed. For
+  models whose every section point is a state none is.
 
 The target cycle is the gait itself where it is stable, or the attractor
 cycle it settles on (``[analysis] attractors``' points, any period).
@@ -27,16 +32,19 @@ perturbed (default: all); the others stay at ``v*``. ``d`` below is their number
 **Basin fraction.** ``samples`` starts uniform in the ``d``-ball of radius
 ``radius`` (the same unit-ball points, from ``seed``, for every gait: common
 random numbers, so a landscape over a grid is not speckled by sampling); the
-fraction that returned, and its binomial standard error ``sqrt(f (1 - f) / n)``.
+fraction of those that are states which returned, and its binomial standard
+error ``sqrt(f (1 - f) / n)``, ``n`` the states among the starts (NaN both if
+none is, with every ``sample_status`` saying why).
 
 **Ray radii.** Along each of ``directions`` unit directions (``d = 2``:
 evenly spaced angles from the first coordinate's axis; ``d = 1``: both signs;
 ``d >= 3``: the ``2 d`` signed axes, then normalised Gaussian vectors from
 ``seed``), the starts at ``radius * j / scan``, ``j = 1..scan``; between the
-last returning one before the first failure and that failure, ``bisections``
-bisections. The ray radius is the largest radius confirmed to return (the
-boundary lies within ``radius / scan / 2^bisections`` above it; ``radius``
-itself, a lower bound, where no scanned start failed). ``basin_radius`` is
+last scanned start before the first failure and that failure, ``bisections``
+bisections. The ray radius is the largest radius to which every start on the
+ray that is a state was confirmed to return (the boundary lies within
+``radius / scan / 2^bisections`` above it; ``radius`` itself, a lower bound,
+where no scanned start failed; a start that is not a state is no failure). ``basin_radius`` is
 their minimum: the largest ball about ``v*`` inside the basin as far as the
 directions see it. A ray can re-enter the basin beyond its first failure:
 only the first boundary (to the scan's resolution) is found.
@@ -144,7 +152,8 @@ class Fate(NamedTuple):
     """Where a start went (batch shape in front).
 
     Attributes:
-        status: int8 ``OK`` (returned), the failing step's status, or ``NOT_RETURNED``.
+        status: int8 ``OK`` (returned), the failing step's status, or ``NOT_RETURNED``
+            (:func:`fates` also ``NOT_A_STATE``: the start is not a state of the walker).
         steps: int32 steps walked (to the return, to the failure, or ``steps``).
         distance: scaled distance to the target cycle at the end.
     """
@@ -173,12 +182,21 @@ def fates(model: Walker, params, starts: Array, targets: Array, scale: Array, op
           solver: SolverOptions = SolverOptions()) -> Fate:
     """:func:`fate` of every row of ``starts`` ``(n, n_v)``: ``model.lockstep_batch`` walks in
     lockstep, each lane taking the next start when its own walk ends
-    (:func:`~jaxwalk.global_stability.walks.pooled_walks`)."""
+    (:func:`~jaxwalk.global_stability.walks.pooled_walks`); ``NOT_A_STATE`` where the
+    start is not a state of the walker (:func:`is_state`)."""
     n = starts.shape[0]
     each = jax.tree_util.tree_map(lambda x: jnp.broadcast_to(x, (n,) + jnp.shape(x)), params)
     end = pooled_walks(model, each, starts, jnp.full(n, options.steps, jnp.int32), min(model.lockstep_batch, n),
                        stop=lambda _, v: cycle_distance(v, targets, scale) < options.tol, solver=solver)
-    return jax.vmap(lambda e: fate_of(e, targets, scale))(end)
+    out = jax.vmap(lambda e: fate_of(e, targets, scale))(end)
+    state = jax.vmap(lambda v: is_state(model, v, params))(starts)
+    return out._replace(status=jnp.where(state, out.status, jnp.int8(Status.NOT_A_STATE)))
+
+
+def is_state(model: Walker, v: Array, params) -> Array:
+    """Whether section point ``v`` is a state of the walker: one its
+    :meth:`~jaxwalk.walker.Walker.into_section` leaves where it is (bool)."""
+    return jnp.all(model.into_section(v, params) == v)
 
 
 @program_cache.serializable
@@ -186,7 +204,7 @@ class Basin(NamedTuple):
     """The basin measure of one gait (module docstring).
 
     Attributes:
-        fraction: share of the ball's starts that returned.
+        fraction: share of the ball's starts that are states which returned (NaN: none is a state).
         fraction_error: its binomial standard error.
         ray_radius: ``(directions,)`` each ray's radius.
         radius: their minimum.
@@ -221,8 +239,9 @@ def basin(model: Walker, params, v_star: Array, targets: Array, options: BasinOp
     rays = dirs[:, None, :] * grid[None, :, None]  # (D, scan, d)
     starts = embed(jnp.concatenate([ball, rays.reshape(-1, len(coords))]), v_star, scale, coords)
     out = fates(model, params, starts, targets, scale, options, solver).status
-    sample_status, ray_ok = out[: options.samples], (out[options.samples:] == Status.OK).reshape(rays.shape[:2])
-    returned = (sample_status == Status.OK).astype(v_star.dtype).mean()  # float64: a bool mean is float32
+    sample_status, ray_ok = out[: options.samples], _no_failure(out[options.samples:]).reshape(rays.shape[:2])
+    states = jnp.sum(sample_status != Status.NOT_A_STATE).astype(v_star.dtype)  # float64: not float32 as a bool mean
+    returned = jnp.sum(sample_status == Status.OK).astype(v_star.dtype) / jnp.where(states > 0, states, jnp.nan)
 
     first_fail = jnp.argmin(ray_ok, axis=1)  # the first False (0 if all returned: see none_failed)
     none_failed = jnp.all(ray_ok, axis=1)
@@ -232,13 +251,18 @@ def basin(model: Walker, params, v_star: Array, targets: Array, options: BasinOp
     def bisect(_, bounds):
         lo, hi = bounds
         mid = 0.5 * (lo + hi)
-        ok = fates(model, params, embed(dirs * mid[:, None], v_star, scale, coords), targets, scale, options, solver).status == 0
+        ok = _no_failure(fates(model, params, embed(dirs * mid[:, None], v_star, scale, coords), targets, scale, options, solver).status)
         return jnp.where(ok, mid, lo), jnp.where(ok, hi, mid)
 
     lo, _ = jax.lax.fori_loop(0, options.bisections, bisect, (lo, hi))
     ray_radius = jnp.where(none_failed, options.radius, lo)
-    error = jnp.sqrt(returned * (1.0 - returned) / options.samples)
+    error = jnp.sqrt(returned * (1.0 - returned) / states)
     return Basin(returned, error, ray_radius, jnp.min(ray_radius), sample_status)
+
+
+def _no_failure(status: Array) -> Array:
+    """Where a ray's start did not fail: it returned, or it is not a state (nothing to fail)."""
+    return (status == Status.OK) | (status == Status.NOT_A_STATE)
 
 
 @functools.lru_cache(maxsize=None)

@@ -34,6 +34,7 @@ STATUS_COLORS: dict[int, str] = {
     Status.NOT_RETURNED: "#bcbd22",  # olive: walking, but not back on the gait
     Status.UNSTABLE_GAIT: "#9e7b5a",
     Status.FOOT_ROLLING: "#b5651d",
+    Status.NOT_A_STATE: "#f5f5dc",  # beige: outside the walker's states, nothing to measure
 }
 #: Fallback for a code this version does not know.
 UNKNOWN_COLOR = "#5c3c00"
@@ -57,6 +58,7 @@ STATUS_MARKERS: dict[int, str] = {
     Status.NOT_RETURNED: "1",
     Status.UNSTABLE_GAIT: "2",
     Status.FOOT_ROLLING: "X",
+    Status.NOT_A_STATE: "3",
 }
 
 
