@@ -84,14 +84,13 @@ KIND_MEANINGS = {
     Kind.BRANCH_POINT: "branch point: a real multiplier through +1 where the branch does not turn (branches cross)",
     Kind.BORDER_COLLISION: ("border collision: the gait goes on but its step's event sequence changes (checked: the "
                             "logged sequences differ on the two sides); the multipliers may jump there"),
-    Kind.JUMP: ("jump: a fold, flip or Neimark-Sacker test function changes sign where no multiplier (pair) is near "
-                "the unit circle's crossing, with no event-order change found on its two sides (or none logged): the "
-                "multipliers jump (the step map is not smooth there); no bifurcation is named"),
+    Kind.JUMP: ("jump: a fold, flip or Neimark-Sacker test function changes sign between two gaits 2 tol apart, at "
+                "one of which no multiplier (pair) is near the unit circle's crossing, with no event-order change "
+                "found on the two sides (or none logged): the multipliers jump (the step map is not smooth there); "
+                "no bifurcation is named"),
 }
 #: Where a multiplier crosses the unit circle at a fold and at a flip.
 _CROSSING_AT = {Kind.FOLD: 1.0, Kind.FLIP: -1.0}
-#: Each test function's bit in a row's ``jumps`` mask (as :func:`jaxwalk.border_collision.jumps`).
-_TEST_BIT = {Kind.FOLD: 1, Kind.FLIP: 2, Kind.NEIMARK_SACKER: 4}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -514,6 +513,7 @@ def _shrink_signs(solve, brackets: list[dict], options: BifurcationOptions, roun
                 hi[g], f_hi[g], v_hi[g], mu_hi[g] = trial[g], f_t[j], v_t[~failed][j], mu[~failed][j]
                 f_lo[g] *= 0.5 if side[g] == -1 else 1.0
                 side[g] = -1
+    state[(state == Status.IN_PROGRESS) & (np.abs(hi - lo) <= 2 * options.tol)] = Status.OK  # closed by the last trial
     state[state == Status.IN_PROGRESS] = Status.NO_CONVERGENCE
     rounds.signs_done()
     rounds.advance(signs=True)
@@ -530,28 +530,30 @@ def _sign_rows(brackets, state, mid, st, v_m, mu_m, ends: dict, options: Bifurca
     its ends (``ends``: ``mu_lo``, ``mu_hi``, and ``v_lo``) are not near the
     crossing (:func:`_crosses`); a jump row carries its lower end's gait and
     its upper end's multipliers (``multipliers_beyond``), and ``jumps``: the
-    test functions whose sign changes by it (one jump may change two)."""
+    test functions whose sign differs between its ends (one jump may change
+    two or three: one row)."""
     out = []
     for r, b in enumerate(brackets):
         kind = b["kind"]
         status = state[r] if state[r] != Status.OK else st[r]
         found = st[r] == Status.OK  # a failed midpoint solve's point and multipliers are not a gait's
-        if found and kind == Kind.NEIMARK_SACKER and not _complex_pair_on_circle(mu_m[r]):
-            continue  # a neutral saddle (real mu_i mu_j = 1), not a bifurcation of the cycle
         # Checked only where the bracket closed (both ends solved gaits within 2 tol): an unlocated
         # row's ends need not be near anything. Both ends, not the midpoint alone: a jump from just
         # inside the window to far outside it has one side near the crossing.
-        closed = state[r] == Status.OK
-        if closed and not (_crosses(kind, ends["mu_lo"][r], options) and _crosses(kind, ends["mu_hi"][r], options)):
+        mu_lo, mu_hi = ends["mu_lo"][r], ends["mu_hi"][r]
+        if state[r] == Status.OK and not (_crosses(kind, mu_lo, options) and _crosses(kind, mu_hi, options)):
+            bits = jumps(indicators(mu_lo)[None], indicators(mu_hi)[None])[0]
             twin = next((o for o in out if o["kind"] == Kind.JUMP and o["line"] == b["line"]
                          and abs(o["parameter"] - mid[r]) <= 2 * options.tol), None)
             if twin is not None:  # the fold and the flip test both change sign by the one jump
-                twin["jumps"] |= _TEST_BIT[kind]
+                twin["jumps"] |= bits
                 continue
             out.append({"kind": Kind.JUMP, "parameter": mid[r], "line": b["line"], "status": state[r],
-                        "v": ends["v_lo"][r], "multipliers": ends["mu_lo"][r], "beyond": Status.OK,
-                        "sequences": b["sequences"], "multipliers_beyond": ends["mu_hi"][r], "jumps": _TEST_BIT[kind]})
+                        "v": ends["v_lo"][r], "multipliers": mu_lo, "beyond": Status.OK,
+                        "sequences": b["sequences"], "multipliers_beyond": mu_hi, "jumps": bits})
             continue
+        if found and kind == Kind.NEIMARK_SACKER and not _complex_pair_on_circle(mu_m[r]):
+            continue  # a neutral saddle (real mu_i mu_j = 1), not a bifurcation of the cycle
         out.append({"kind": kind, "parameter": mid[r], "line": b["line"], "status": status,
                     "v": v_m[r] if found else np.full_like(v_m[r], np.nan),
                     "multipliers": mu_m[r] if found else np.full_like(mu_m[r], np.nan), "beyond": Status.OK,

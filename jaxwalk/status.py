@@ -72,7 +72,7 @@ STATUS_MEANINGS: dict[Status, str] = {
     ),
     Status.NOT_A_STATE: (
         "not a state: a perturbed start outside the walker's states (the model's into_section moves it, e.g. a "
-        "flat foot below the ground); not walked, and left out of the basin's counts"
+        "flat foot below the ground); its walk is not read, and it is left out of the basin's counts"
     ),
     Status.IN_PROGRESS: "internal: step in progress",
 }

@@ -406,3 +406,36 @@ def test_a_continuous_crossing_has_no_jump_columns(monkeypatch):
                    options=BifurcationOptions(tol=1e-8))
     fold = found.kind == Kind.FOLD
     assert fold.sum() == 1 and found.jumps[fold][0] == 0 and np.isnan(found.multipliers_beyond[fold]).all()
+
+
+def test_a_jump_of_the_neimark_sacker_test_is_in_the_rows_bits(monkeypatch):
+    """A real multiplier jumps from 0.2 to 3.0 beside one at 0.5: the fold test and the
+    Neimark-Sacker test (a real pair's product through 1) change sign by the one jump:
+    one jump row with both bits, not a row dropped as a neutral saddle."""
+    monkeypatch.setattr(bifurcation, "_evaluate", _stepped([0.5, 0.2], [0.5, 3.0]))
+    x = np.array([[0.0, 1.0]])
+    _, v, mu, seq = _stepped([0.5, 0.2], [0.5, 3.0])(None, 1, None, None, {"gamma": x[0]}, None)
+    found = locate(get_model("simplest"), {"gamma": x}, "gamma", np.zeros((1, 2), np.int8), v[None], mu[None],
+                   sequences=seq[None, :, 0], options=BifurcationOptions(tol=1e-8))
+    assert found.kind.tolist() == [Kind.JUMP] and found.jumps.tolist() == [1 | 4]
+
+
+def test_a_bracket_closed_by_the_last_allowed_trial_is_located(monkeypatch):
+    """With ``max_iter`` just the trials the regula falsi needs, the row is
+    located (``OK``), not left ``no_convergence``."""
+    calls = []
+
+    def counted(*args):
+        calls.append(len(args[4]["gamma"]))
+        return _stepped([0.97, 0.1], [1.5, 0.1])(*args)
+
+    monkeypatch.setattr(bifurcation, "_evaluate", counted)
+    x = np.array([[0.0, 1.0]])
+    _, v, mu, seq = _stepped([0.97, 0.1], [1.5, 0.1])(None, 1, None, None, {"gamma": x[0]}, None)
+    run = lambda max_iter: locate(get_model("simplest"), {"gamma": x}, "gamma", np.zeros((1, 2), np.int8), v[None],
+                                  mu[None], sequences=seq[None, :, 0],
+                                  options=BifurcationOptions(tol=1e-8, max_iter=max_iter))
+    assert run(80).status.tolist() == [Status.OK]
+    trials = len(calls) - 1  # the last call: the midpoint's solve
+    assert run(trials).status.tolist() == [Status.OK]
+    assert run(trials - 1).status.tolist() == [Status.NO_CONVERGENCE]

@@ -91,7 +91,7 @@ OUTPUTS = (
     Output("basin_ray_radius", "float64", (
         "along each ray from the fixed point, the largest radius confirmed to return before the first failing "
         "one (scaled section norm; radius itself where no scanned start failed, a lower bound; a start that is "
-        "not a state of the walker is no failure)"
+        "not a state of the walker is no failure: a ray with none on it reads radius, nothing walked)"
     ), trailing=("direction",), finite_where_ok=True),
 )
 

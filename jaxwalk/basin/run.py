@@ -7,7 +7,9 @@ coordinates' values, their names and units in the attributes):
 
 * ``outcome`` int8, CF flag attributes: ``ok`` returned to within ``tol`` of
   the gait, the failing step's status (``fell``, ``scuffing``, ``stalled``, ...),
-  ``not_returned`` (walked ``steps`` steps without either);
+  ``not_returned`` (walked ``steps`` steps without either), ``not_a_state``
+  (the start is not a state of the walker: :meth:`Walker.into_section` moves
+  it; its ``steps`` and ``distance`` are those of a walk that means nothing);
 * ``steps`` int32: steps walked (to the return, to the failure, or ``steps``);
 * ``distance``: scaled distance to the fixed point at the end.
 """

@@ -44,7 +44,8 @@ last scanned start before the first failure and that failure, ``bisections``
 bisections. The ray radius is the largest radius to which every start on the
 ray that is a state was confirmed to return (the boundary lies within
 ``radius / scan / 2^bisections`` above it; ``radius`` itself, a lower bound,
-where no scanned start failed; a start that is not a state is no failure). ``basin_radius`` is
+where no scanned start failed; a start that is not a state is no failure, so
+a ray with no state on it reads ``radius`` with nothing walked). ``basin_radius`` is
 their minimum: the largest ball about ``v*`` inside the basin as far as the
 directions see it. A ray can re-enter the basin beyond its first failure:
 only the first boundary (to the scan's resolution) is found.
@@ -165,7 +166,8 @@ class Fate(NamedTuple):
 
 def fate(model: Walker, params, v0: Array, targets: Array, scale: Array, options: BasinOptions,
          solver: SolverOptions = SolverOptions()) -> Fate:
-    """The fate of one start ``v0`` (module docstring; one walk, vmap it)."""
+    """The fate of one start ``v0`` (module docstring; one walk, vmap it). It does not ask
+    whether ``v0`` is a state (:func:`fates` does): ``NOT_A_STATE`` is never its status."""
     end = walk_until(model, params, v0, options.steps, stop=lambda v: cycle_distance(v, targets, scale) < options.tol,
                      solver=solver)
     return fate_of(end, targets, scale)
