@@ -28,29 +28,6 @@ def pytest_configure(config):
     )
 
 
-#: Test modules that cost most in a cold run (compiling), heaviest first: the
-#: durations of a fresh-clone `bash .ci/run --durations=80`, 2026-12-07 (session
-#: 54), summed per module (seconds of one worker, 2 cores). `.ci/run` hands
-#: modules to its two workers in collection order (`--no-loadscope-reorder`;
-#: pytest-xdist's default orders them by their number of tests, which put these
-#: few-test, minute-long modules last, where one worker ran on alone), so the
-#: longest go first and the many short ones fill in behind them. A module not
-#: named keeps its place after these; the list only orders, it selects nothing.
-HEAVY_FIRST = (
-    "test_gait_sensitivity_norm.py", "test_mfpt.py", "test_flatfoot.py", "test_branches_reference.py",
-    "test_arclength.py", "test_simplest.py", "test_flatstep.py", "test_flatfoot_heel_rise.py",
-    "test_loop_carries.py", "test_attractor.py", "test_sensitivity.py", "test_program_cache.py",
-    "test_basin.py", "test_cache.py", "test_docs_examples.py", "test_walker_contract.py", "test_stepdown.py",
-    "test_newton_stop.py", "test_kneed.py", "test_compass.py",
-)
-
-
-def pytest_collection_modifyitems(config, items):
-    """The modules of :data:`HEAVY_FIRST` first, in its order; each module's tests keep theirs."""
-    rank = {name: i for i, name in enumerate(HEAVY_FIRST)}
-    items.sort(key=lambda item: rank.get(item.path.name, len(rank)))
-
-
 #: A small two-axis compass sweep (7 x 5, continuation along gamma) that the
 #: store, runner and API tests run with the fake analysis.
 COMPASS_2D = """
