@@ -154,6 +154,15 @@ class Walker:
     #: (:meth:`with_ground_drop`). ``None``: the model always lands on the
     #: slope, and the analyses that lower the ground refuse it.
     ground_next: int | None = None
+    #: Whether the model walks on after a step up (the ground at a touchdown
+    #: higher than under the trailing foot, a negative drop). ``False`` where its
+    #: section keeps the trailing foot's height while its step assumes both feet
+    #: on one level ground: the step after a step-up would start with that foot
+    #: below the ground it assumes, a start it ends ``SCUFFING`` that no walker on
+    #: such terrain would (the heel-rise walker). The analyses whose terrain steps
+    #: up (the MFPT chain, Monte Carlo walks) refuse such a model; step-downs
+    #: (``h_max``) and the linear gait sensitivity norm are unaffected.
+    steps_up: bool = True
     #: The ball of starts of the basin measure where a config names none
     #: (``[analysis] basin``'s ``radius`` and ``scale``: the Euclidean norm of
     #: ``(v - v*) / scale``, ``scale`` ``(n_v,)`` in each section coordinate's
@@ -462,13 +471,22 @@ def _step_down(model: Walker) -> str | None:
     return None if model.ground_next is not None else "has no step-down (no 'ground_next' in its context)"
 
 
+def _step_up(model: Walker) -> str | None:
+    if model.ground_next is None:
+        return _step_down(model)
+    return None if model.steps_up else (
+        "cannot walk up a step: its section keeps the trailing foot's height and its step assumes both feet on one "
+        "level ground (Walker.steps_up; docs/model.md, \"The heel-rise walker\")")
+
+
 def _drawing(model: Walker) -> str | None:
     absent = [m for m in ("skeleton", "foot_points") if not overrides(model, m)]
     return f"cannot be drawn: it has no {' or '.join(f'{m}()' for m in absent)} method" if absent else None
 
 
 #: Each optional capability: the end of the one-line refusal when ``model`` lacks it, else ``None``.
-CAPABILITIES: dict[str, Callable[[Walker], str | None]] = {"step_down": _step_down, "drawing": _drawing}
+CAPABILITIES: dict[str, Callable[[Walker], str | None]] = {
+    "step_down": _step_down, "step_up": _step_up, "drawing": _drawing}
 
 #: The capability each config key needs when it is switched on (its value
 #: truthy): ``[analysis]`` keys of a sweep, ``[simulate] drop``. (The figures of
@@ -476,7 +494,7 @@ CAPABILITIES: dict[str, Callable[[Walker], str | None]] = {"step_down": _step_do
 NEEDS: dict[str, str] = {
     "h_max": "step_down",
     "gait_sensitivity": "step_down",
-    "mfpt": "step_down",
+    "mfpt": "step_up",
     "drop": "step_down",
 }
 

@@ -33,7 +33,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from jaxwalk.models import MODELS
+from jaxwalk.models import MODELS, get_model
 from jaxwalk.simulate import check_drawable, find_start_gait, parse_simulate_config
 from jaxwalk.status import Status
 from jaxwalk.step import SolverOptions, step_map
@@ -275,9 +275,33 @@ def _without(model: Walker, capability: str) -> Walker:
 
 @pytest.mark.parametrize("key", sorted(ANALYSES))
 def test_supported_analyses_are_accepted(model, key):
-    assert NEEDS[key] == "step_down" and missing(model, "step_down") is None
+    assert NEEDS[key] in ("step_down", "step_up") and missing(model, "step_down") is None
+    if missing(model, NEEDS[key]) is not None:
+        pytest.skip(f"{model.name} lacks {NEEDS[key]}: test_a_model_that_cannot_step_up_refuses_the_mfpt")
     config = parse_config(_sweep(model, key))
     assert config.model == model.name
+
+
+def test_a_model_that_cannot_step_up_refuses_the_mfpt_and_the_walks():
+    """The heel-rise walker keeps its trailing foot's height in its section (it
+    cannot walk up a step); its step-downs and the norm are accepted."""
+    from jaxwalk.global_stability.mfpt import MFPTOptions, mfpt
+    from jaxwalk.global_stability.walks import monte_carlo
+
+    model = get_model("flatfoot_heel_rise")
+    reason = ("cannot walk up a step: its section keeps the trailing foot's height and its step assumes both feet "
+              "on one level ground (Walker.steps_up; docs/model.md, \"The heel-rise walker\")")
+    assert missing(model, "step_up") == reason and missing(get_model("flatfoot"), "step_up") is None
+    with pytest.raises(ConfigError) as err:
+        parse_config(_sweep(model, "mfpt"), source="contract.toml")
+    assert str(err.value) == f"contract.toml: [analysis] mfpt: model 'flatfoot_heel_rise' {reason}"
+    for key in ("h_max", "gait_sensitivity"):
+        assert parse_config(_sweep(model, key)).model == model.name
+    params, v = model.default_params(), np.zeros(3)  # refused before anything is traced
+    with pytest.raises(ConfigError, match="^mfpt: model 'flatfoot_heel_rise' cannot walk up a step"):
+        mfpt(model, params, v, MFPTOptions(sigma=0.001))
+    with pytest.raises(ConfigError, match="^monte_carlo: model 'flatfoot_heel_rise' cannot walk up a step"):
+        monte_carlo(model, params, v, 0.001, n_walks=4, max_steps=3)
 
 
 @pytest.mark.parametrize("key", sorted(ANALYSES))

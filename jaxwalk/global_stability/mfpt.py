@@ -56,10 +56,11 @@ from scipy.special import ndtr
 
 from jaxwalk import compiling, program_cache
 from jaxwalk.batching import Rows, over_rows, run_chunks, sub_batch_size
+from jaxwalk.errors import ConfigError
 from jaxwalk.global_stability.sensitivity_norm import linearise, observability_gramian
 from jaxwalk.status import Status
 from jaxwalk.step import SolverOptions, step_map
-from jaxwalk.walker import Walker
+from jaxwalk.walker import Walker, missing
 
 
 @dataclasses.dataclass(frozen=True)
@@ -238,7 +239,13 @@ class ChainPlan(NamedTuple):
 
 
 def plan(model: Walker, params, v_star, options: MFPTOptions, solver: SolverOptions = SolverOptions()) -> ChainPlan:
-    """The meshes of the gait at ``v_star`` (``sigma > 0``): the linearised chain's principal axes."""
+    """The meshes of the gait at ``v_star`` (``sigma > 0``): the linearised chain's principal axes.
+
+    Raises :class:`~jaxwalk.errors.ConfigError` for a model that cannot walk up a step
+    (:attr:`Walker.steps_up`): half the chain's terrain steps up."""
+    reason = missing(model, "step_up")
+    if reason:
+        raise ConfigError(f"mfpt: model '{model.name}' {reason}")
     v_star = np.asarray(v_star, np.float64)
     p = {k: jnp.asarray(v, jnp.float64) for k, v in params.items()}
     lin = _linearise_program(model, solver)(p, jnp.asarray(v_star))

@@ -32,7 +32,7 @@ from jaxwalk.batching import Rows, run_chunks, sub_batch_size
 from jaxwalk.errors import ConfigError
 from jaxwalk.status import Status
 from jaxwalk.step import SolverOptions, step_map
-from jaxwalk.walker import Walker
+from jaxwalk.walker import Walker, missing
 
 Array = jax.Array
 
@@ -288,8 +288,12 @@ def monte_carlo(
     same whatever lane runs it. Each worker thread runs the engine's sub-batch
     size of walks at a time, a lane taking the next walk when its own ends
     (:func:`pooled_walks`; calls of :data:`CALL_WALKS`, :func:`jaxwalk.batching.run_chunks`).
-    Raises :class:`~jaxwalk.errors.ConfigError` for ``n_walks < 2`` or a ``max_steps`` outside ``[1, 2**31)``.
+    Raises :class:`~jaxwalk.errors.ConfigError` for ``n_walks < 2``, a ``max_steps`` outside
+    ``[1, 2**31)``, or a model that cannot walk up a step (:attr:`Walker.steps_up`).
     """
+    reason = missing(model, "step_up")
+    if reason:
+        raise ConfigError(f"monte_carlo: model '{model.name}' {reason}")
     if not (isinstance(n_walks, (int, np.integer)) and n_walks >= 2):
         raise ConfigError(f"monte_carlo: n_walks must be an integer >= 2 (a standard error needs two walks), got {n_walks!r}")
     if not (isinstance(max_steps, (int, np.integer)) and 1 <= max_steps < 2**31):
