@@ -31,6 +31,9 @@ Methods marked *model* below are required. Beyond them a model may offer
   height of the ground at the next touchdown; the step-down test (``h_max``),
   the global-stability measures on uneven ground and a simulation's ``drop``
   need it.
+* **step-up** (step-down, and :attr:`Walker.cannot_step_up` ``None``): the model
+  walks on after a touchdown on higher ground; the MFPT chain and the Monte
+  Carlo walks (random terrain, half of it steps up) need it.
 * **drawing** (:meth:`Walker.skeleton`, :meth:`Walker.foot_points`): the figures
   and the GIF of ``jaxwalk simulate`` need both.
 * **actuators** (:meth:`Walker.actuator_power`, :meth:`Walker.actuator_work`):
@@ -154,15 +157,18 @@ class Walker:
     #: (:meth:`with_ground_drop`). ``None``: the model always lands on the
     #: slope, and the analyses that lower the ground refuse it.
     ground_next: int | None = None
-    #: Whether the model walks on after a step up (the ground at a touchdown
-    #: higher than under the trailing foot, a negative drop). ``False`` where its
-    #: section keeps the trailing foot's height while its step assumes both feet
-    #: on one level ground: the step after a step-up would start with that foot
-    #: below the ground it assumes, a start it ends ``SCUFFING`` that no walker on
-    #: such terrain would (the heel-rise walker). The analyses whose terrain steps
-    #: up (the MFPT chain, Monte Carlo walks) refuse such a model; step-downs
-    #: (``h_max``) and the linear gait sensitivity norm are unaffected.
-    steps_up: bool = True
+    #: ``None``, or why the model cannot walk on after a step up (the ground at a
+    #: touchdown higher than under the trailing foot, a negative drop), the end
+    #: of a sentence "model 'name' cannot walk up a step: ...". The heel-rise
+    #: walker's section keeps the trailing foot's height while its step assumes
+    #: both feet on one level ground: the step after a step-up starts with that
+    #: foot below the ground it assumes, a start it ends ``SCUFFING`` that no
+    #: walker on such terrain would. The analyses whose terrain steps up (the
+    #: MFPT chain, Monte Carlo walks) refuse such a model; the lower-level
+    #: :func:`~jaxwalk.step.step_map` (``ground_drop < 0``) and the walks of
+    #: :mod:`jaxwalk.global_stability.walks` given drops of their own cannot
+    #: check traced values and do not.
+    cannot_step_up: str | None = None
     #: The ball of starts of the basin measure where a config names none
     #: (``[analysis] basin``'s ``radius`` and ``scale``: the Euclidean norm of
     #: ``(v - v*) / scale``, ``scale`` ``(n_v,)`` in each section coordinate's
@@ -474,9 +480,7 @@ def _step_down(model: Walker) -> str | None:
 def _step_up(model: Walker) -> str | None:
     if model.ground_next is None:
         return _step_down(model)
-    return None if model.steps_up else (
-        "cannot walk up a step: its section keeps the trailing foot's height and its step assumes both feet on one "
-        "level ground (Walker.steps_up; docs/model.md, \"The heel-rise walker\")")
+    return None if model.cannot_step_up is None else f"cannot walk up a step: {model.cannot_step_up}"
 
 
 def _drawing(model: Walker) -> str | None:

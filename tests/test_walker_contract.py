@@ -277,7 +277,7 @@ def _without(model: Walker, capability: str) -> Walker:
 def test_supported_analyses_are_accepted(model, key):
     assert NEEDS[key] in ("step_down", "step_up") and missing(model, "step_down") is None
     if missing(model, NEEDS[key]) is not None:
-        pytest.skip(f"{model.name} lacks {NEEDS[key]}: test_a_model_that_cannot_step_up_refuses_the_mfpt")
+        pytest.skip(f"{model.name} lacks {NEEDS[key]}: test_a_model_that_cannot_step_up_refuses_the_mfpt_and_the_walks")
     config = parse_config(_sweep(model, key))
     assert config.model == model.name
 
@@ -286,11 +286,11 @@ def test_a_model_that_cannot_step_up_refuses_the_mfpt_and_the_walks():
     """The heel-rise walker keeps its trailing foot's height in its section (it
     cannot walk up a step); its step-downs and the norm are accepted."""
     from jaxwalk.global_stability.mfpt import MFPTOptions, mfpt
-    from jaxwalk.global_stability.walks import monte_carlo
+    from jaxwalk.global_stability.walks import monte_carlo, steps_to_fall
 
     model = get_model("flatfoot_heel_rise")
     reason = ("cannot walk up a step: its section keeps the trailing foot's height and its step assumes both feet "
-              "on one level ground (Walker.steps_up; docs/model.md, \"The heel-rise walker\")")
+              "on one level ground (docs/model.md, \"The heel-rise walker\")")
     assert missing(model, "step_up") == reason and missing(get_model("flatfoot"), "step_up") is None
     with pytest.raises(ConfigError) as err:
         parse_config(_sweep(model, "mfpt"), source="contract.toml")
@@ -298,10 +298,13 @@ def test_a_model_that_cannot_step_up_refuses_the_mfpt_and_the_walks():
     for key in ("h_max", "gait_sensitivity"):
         assert parse_config(_sweep(model, key)).model == model.name
     params, v = model.default_params(), np.zeros(3)  # refused before anything is traced
-    with pytest.raises(ConfigError, match="^mfpt: model 'flatfoot_heel_rise' cannot walk up a step"):
-        mfpt(model, params, v, MFPTOptions(sigma=0.001))
+    for sigma in (0.001, 0.0):  # at sigma 0 too, where nothing would walk
+        with pytest.raises(ConfigError, match="^mfpt: model 'flatfoot_heel_rise' cannot walk up a step"):
+            mfpt(model, params, v, MFPTOptions(sigma=sigma))
     with pytest.raises(ConfigError, match="^monte_carlo: model 'flatfoot_heel_rise' cannot walk up a step"):
         monte_carlo(model, params, v, 0.001, n_walks=4, max_steps=3)
+    with pytest.raises(ConfigError, match="^steps_to_fall: model 'flatfoot_heel_rise' cannot walk up a step"):
+        steps_to_fall(model, params, v, jax.random.PRNGKey(0), 0.001, 3)
 
 
 @pytest.mark.parametrize("key", sorted(ANALYSES))

@@ -242,10 +242,8 @@ def plan(model: Walker, params, v_star, options: MFPTOptions, solver: SolverOpti
     """The meshes of the gait at ``v_star`` (``sigma > 0``): the linearised chain's principal axes.
 
     Raises :class:`~jaxwalk.errors.ConfigError` for a model that cannot walk up a step
-    (:attr:`Walker.steps_up`): half the chain's terrain steps up."""
-    reason = missing(model, "step_up")
-    if reason:
-        raise ConfigError(f"mfpt: model '{model.name}' {reason}")
+    (:attr:`jaxwalk.walker.Walker.cannot_step_up`): half the chain's terrain steps up."""
+    _refuse_without_step_up(model)
     v_star = np.asarray(v_star, np.float64)
     p = {k: jnp.asarray(v, jnp.float64) for k, v in params.items()}
     lin = _linearise_program(model, solver)(p, jnp.asarray(v_star))
@@ -253,6 +251,12 @@ def plan(model: Walker, params, v_star, options: MFPTOptions, solver: SolverOpti
     coarse_points, coarse_samples = (options.mesh + 1) // 2, max(2, options.samples // 2)
     return ChainPlan(p, v_star, principal_mesh(J, B, v_star, options, options.mesh),
                      principal_mesh(J, B, v_star, options, coarse_points), (options.samples, coarse_samples))
+
+
+def _refuse_without_step_up(model: Walker) -> None:
+    reason = missing(model, "step_up")
+    if reason:
+        raise ConfigError(f"mfpt: model '{model.name}' {reason}")
 
 
 def _chain(model: Walker, params, v_star, mesh: Mesh, sigma: float, samples: int, solver, progress):
@@ -307,7 +311,9 @@ def mfpt(model: Walker, params, v_star, options: MFPTOptions, solver: SolverOpti
          progress: Callable[[int], None] | None = None) -> MFPTResult:
     """The MFPT of the gait at ``v_star`` (module docstring). Host-side linear algebra; not differentiable.
 
-    ``progress(n)``: called as each call of ``n`` step maps finishes (``plan(...).steps`` in all)."""
+    ``progress(n)``: called as each call of ``n`` step maps finishes (``plan(...).steps`` in all).
+    Raises :class:`~jaxwalk.errors.ConfigError` as :func:`plan`, for any ``sigma``."""
+    _refuse_without_step_up(model)
     if options.sigma == 0.0:
         return MFPTResult(np.inf, 0.0, np.inf, 0.0, 1)
     return run(model, plan(model, params, v_star, options, solver), options.sigma, solver, progress)

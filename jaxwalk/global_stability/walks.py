@@ -213,8 +213,13 @@ def steps_to_fall(
     """Walk from ``v0`` on i.i.d. ``N(0, sigma^2)`` drops until a failure (one walk; vmap it).
 
     Step ``k``'s drop is ``sigma * normal(fold_in(key, k))``: a walk's terrain
-    depends only on its key, not on its batch neighbours.
+    depends only on its key, not on its batch neighbours. Raises
+    :class:`~jaxwalk.errors.ConfigError` (when traced) for a model that cannot walk
+    up a step (:attr:`Walker.cannot_step_up`).
     """
+    reason = missing(model, "step_up")
+    if reason:
+        raise ConfigError(f"steps_to_fall: model '{model.name}' {reason}")
     drop = lambda k: sigma * jax.random.normal(jax.random.fold_in(key, k), dtype=v0.dtype)  # noqa: E731
     end = walk_until(model, params, v0, max_steps, drop=drop, solver=solver)
     return FallResult(end.steps, end.status)
@@ -289,7 +294,7 @@ def monte_carlo(
     size of walks at a time, a lane taking the next walk when its own ends
     (:func:`pooled_walks`; calls of :data:`CALL_WALKS`, :func:`jaxwalk.batching.run_chunks`).
     Raises :class:`~jaxwalk.errors.ConfigError` for ``n_walks < 2``, a ``max_steps`` outside
-    ``[1, 2**31)``, or a model that cannot walk up a step (:attr:`Walker.steps_up`).
+    ``[1, 2**31)``, or a model that cannot walk up a step (:attr:`Walker.cannot_step_up`).
     """
     reason = missing(model, "step_up")
     if reason:

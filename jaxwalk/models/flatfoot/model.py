@@ -327,10 +327,8 @@ class FlatFootHeelRiseWalker(FlatFootWalker):
     section_names = ("psi", "psi_2", "psi_dot")
     # The base walker's half-spans, psi's for psi_2.
     basin_scale = (0.12, 0.12, 0.25)
-    # After a step up the trailing foot stands on lower ground than the stance
-    # foot, and psi_2 keeps it there: the next step, which assumes one level
-    # ground, would start with that foot below it (docs/model.md).
-    steps_up = False
+    cannot_step_up = ("its section keeps the trailing foot's height and its step assumes both feet on one level "
+                      "ground (docs/model.md, \"The heel-rise walker\")")
 
     def section_to_state(self, v, params):
         """Full state just after toe-strike from ``v = (psi, psi_2, psi_dot)``.
