@@ -56,6 +56,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float, Int8, Int32
 
 from jaxwalk import mechanics
+from jaxwalk.errors import ConfigError
 from jaxwalk.parameters import ParamSpec
 
 Params = dict
@@ -507,6 +508,14 @@ def missing(model: Walker, capability: str) -> str | None:
     """Why ``model`` lacks ``capability`` (a key of :data:`CAPABILITIES`): the end of a
     sentence that begins "model 'name' ", or ``None`` when it has it."""
     return CAPABILITIES[capability](model)
+
+
+def require(model: Walker, capability: str, where: str) -> None:
+    """Raise :class:`~jaxwalk.errors.ConfigError` ``"where: model 'name' <why>"`` when
+    ``model`` lacks ``capability`` (the Python API's refusal; configs use :func:`check_supported`)."""
+    reason = missing(model, capability)
+    if reason:
+        raise ConfigError(f"{where}: model '{model.name}' {reason}")
 
 
 def check_supported(model: Walker, requested: Mapping[str, object], fail: Callable[[str], Exception], where: str = "[analysis]") -> None:

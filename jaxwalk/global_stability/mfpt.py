@@ -56,11 +56,10 @@ from scipy.special import ndtr
 
 from jaxwalk import compiling, program_cache
 from jaxwalk.batching import Rows, over_rows, run_chunks, sub_batch_size
-from jaxwalk.errors import ConfigError
 from jaxwalk.global_stability.sensitivity_norm import linearise, observability_gramian
 from jaxwalk.status import Status
 from jaxwalk.step import SolverOptions, step_map
-from jaxwalk.walker import Walker, missing
+from jaxwalk.walker import Walker, require
 
 
 @dataclasses.dataclass(frozen=True)
@@ -243,7 +242,7 @@ def plan(model: Walker, params, v_star, options: MFPTOptions, solver: SolverOpti
 
     Raises :class:`~jaxwalk.errors.ConfigError` for a model that cannot walk up a step
     (:attr:`jaxwalk.walker.Walker.cannot_step_up`): half the chain's terrain steps up."""
-    _refuse_without_step_up(model)
+    require(model, "step_up", "mfpt")
     v_star = np.asarray(v_star, np.float64)
     p = {k: jnp.asarray(v, jnp.float64) for k, v in params.items()}
     lin = _linearise_program(model, solver)(p, jnp.asarray(v_star))
@@ -251,12 +250,6 @@ def plan(model: Walker, params, v_star, options: MFPTOptions, solver: SolverOpti
     coarse_points, coarse_samples = (options.mesh + 1) // 2, max(2, options.samples // 2)
     return ChainPlan(p, v_star, principal_mesh(J, B, v_star, options, options.mesh),
                      principal_mesh(J, B, v_star, options, coarse_points), (options.samples, coarse_samples))
-
-
-def _refuse_without_step_up(model: Walker) -> None:
-    reason = missing(model, "step_up")
-    if reason:
-        raise ConfigError(f"mfpt: model '{model.name}' {reason}")
 
 
 def _chain(model: Walker, params, v_star, mesh: Mesh, sigma: float, samples: int, solver, progress):
@@ -313,7 +306,7 @@ def mfpt(model: Walker, params, v_star, options: MFPTOptions, solver: SolverOpti
 
     ``progress(n)``: called as each call of ``n`` step maps finishes (``plan(...).steps`` in all).
     Raises :class:`~jaxwalk.errors.ConfigError` as :func:`plan`, for any ``sigma``."""
-    _refuse_without_step_up(model)
+    require(model, "step_up", "mfpt")
     if options.sigma == 0.0:
         return MFPTResult(np.inf, 0.0, np.inf, 0.0, 1)
     return run(model, plan(model, params, v_star, options, solver), options.sigma, solver, progress)

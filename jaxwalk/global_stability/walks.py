@@ -32,7 +32,7 @@ from jaxwalk.batching import Rows, run_chunks, sub_batch_size
 from jaxwalk.errors import ConfigError
 from jaxwalk.status import Status
 from jaxwalk.step import SolverOptions, step_map
-from jaxwalk.walker import Walker, missing
+from jaxwalk.walker import Walker, require
 
 Array = jax.Array
 
@@ -217,9 +217,7 @@ def steps_to_fall(
     :class:`~jaxwalk.errors.ConfigError` (when traced) for a model that cannot walk
     up a step (:attr:`Walker.cannot_step_up`).
     """
-    reason = missing(model, "step_up")
-    if reason:
-        raise ConfigError(f"steps_to_fall: model '{model.name}' {reason}")
+    require(model, "step_up", "steps_to_fall")
     drop = lambda k: sigma * jax.random.normal(jax.random.fold_in(key, k), dtype=v0.dtype)  # noqa: E731
     end = walk_until(model, params, v0, max_steps, drop=drop, solver=solver)
     return FallResult(end.steps, end.status)
@@ -296,9 +294,7 @@ def monte_carlo(
     Raises :class:`~jaxwalk.errors.ConfigError` for ``n_walks < 2``, a ``max_steps`` outside
     ``[1, 2**31)``, or a model that cannot walk up a step (:attr:`Walker.cannot_step_up`).
     """
-    reason = missing(model, "step_up")
-    if reason:
-        raise ConfigError(f"monte_carlo: model '{model.name}' {reason}")
+    require(model, "step_up", "monte_carlo")
     if not (isinstance(n_walks, (int, np.integer)) and n_walks >= 2):
         raise ConfigError(f"monte_carlo: n_walks must be an integer >= 2 (a standard error needs two walks), got {n_walks!r}")
     if not (isinstance(max_steps, (int, np.integer)) and 1 <= max_steps < 2**31):
