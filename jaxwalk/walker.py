@@ -466,6 +466,12 @@ class Walker:
         )
 
 
+def is_state(model: Walker, v: Float[Array, "n_v"], params: Params) -> Bool[Array, ""]:
+    """Whether section point ``v`` is a state of the walker: one its
+    :meth:`Walker.into_section` leaves where it is, bit for bit."""
+    return jnp.all(model.into_section(v, params) == v)
+
+
 # -------------------------------------------------------------------- capabilities
 
 

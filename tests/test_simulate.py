@@ -339,3 +339,26 @@ def test_bundled_simulate_configs_are_valid(path):
     assert cfg.name == path.stem
     assert cfg.steps >= 1 and cfg.dt > 0
     simulate.check_drawable(get_model(cfg.model))
+
+
+def test_a_start_that_is_not_a_state_is_refused(tmp_path, monkeypatch, capsys):
+    """The heel-rise walker's section holds points with the trailing ankle below
+    the ground; walked, one ends its first step ``scuffing``, a fault of the
+    start. Refused before anything is traced or written, naming a state on the
+    edge (both feet flat: psi_2 = -psi)."""
+    monkeypatch.chdir(tmp_path)
+    sunk = 'name = "walk"\nmodel = "flatfoot_heel_rise"\n[simulate]\nv0 = [0.3245, 0.0, -0.3734]\n'
+    (tmp_path / "walk.toml").write_text(sunk)
+    assert cli.main(["simulate", "walk.toml", "--steps", "2", "--out", "out"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1, err
+    assert ("walk.toml: [simulate] v0 = [0.3245, 0.0, -0.3734] is not a state of the flatfoot_heel_rise walker "
+            "(outside its section; a state on the section's edge: [0.3245, -0.3245, -0.3734])") in err
+    assert listing(tmp_path) == ["walk.toml"]
+
+    model = get_model("flatfoot_heel_rise")
+    params = model.default_params()
+    simulate.check_start(model, params, [0.3245, -0.3245, -0.3734], "here")  # on the edge: a state
+    simulate.check_start(model, params, [0.3245, -0.5, -0.3734], "here")  # ankle 2 above the ground
+    with pytest.raises(ConfigError, match=r"^here v0 = \[0.3245, -0.2, -0.3734\] is not a state"):
+        simulate.check_start(model, params, [0.3245, -0.2, -0.3734], "here")

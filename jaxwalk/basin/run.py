@@ -78,7 +78,8 @@ def _fate_program(model, options, solver):
 
     from jaxwalk import program_cache
     from jaxwalk.batching import Rows
-    from jaxwalk.global_stability.basin import cycle_distance, fate_of, is_state
+    from jaxwalk.global_stability.basin import cycle_distance, fate_of
+    from jaxwalk.walker import is_state
     from jaxwalk.global_stability.walks import pooled_walks
 
     # Starts near the basin's edge walk many steps, most return in a few: each

@@ -65,7 +65,7 @@ from jaxwalk import program_cache
 from jaxwalk.global_stability.walks import WalkEnd, pooled_walks, walk_until
 from jaxwalk.status import Status
 from jaxwalk.step import SolverOptions
-from jaxwalk.walker import Walker
+from jaxwalk.walker import Walker, is_state
 
 Array = jax.Array
 
@@ -185,7 +185,7 @@ def fates(model: Walker, params, starts: Array, targets: Array, scale: Array, op
     """:func:`fate` of every row of ``starts`` ``(n, n_v)``: ``model.lockstep_batch`` walks in
     lockstep, each lane taking the next start when its own walk ends
     (:func:`~jaxwalk.global_stability.walks.pooled_walks`); ``NOT_A_STATE`` where the
-    start is not a state of the walker (:func:`is_state`)."""
+    start is not a state of the walker (:func:`jaxwalk.walker.is_state`)."""
     n = starts.shape[0]
     each = jax.tree_util.tree_map(lambda x: jnp.broadcast_to(x, (n,) + jnp.shape(x)), params)
     end = pooled_walks(model, each, starts, jnp.full(n, options.steps, jnp.int32), min(model.lockstep_batch, n),
@@ -193,12 +193,6 @@ def fates(model: Walker, params, starts: Array, targets: Array, scale: Array, op
     out = jax.vmap(lambda e: fate_of(e, targets, scale))(end)
     state = jax.vmap(lambda v: is_state(model, v, params))(starts)
     return out._replace(status=jnp.where(state, out.status, jnp.int8(Status.NOT_A_STATE)))
-
-
-def is_state(model: Walker, v: Array, params) -> Array:
-    """Whether section point ``v`` is a state of the walker: one its
-    :meth:`~jaxwalk.walker.Walker.into_section` leaves where it is (bool)."""
-    return jnp.all(model.into_section(v, params) == v)
 
 
 @program_cache.serializable

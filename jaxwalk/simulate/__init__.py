@@ -39,6 +39,7 @@ from jaxwalk.simulate.recorder import (
 from jaxwalk.simulate.run import run_simulation as run_simulation
 from jaxwalk.simulate.start import (
     GaitNotFound as GaitNotFound,
+    check_start as check_start,
     find_start_gait as find_start_gait,
     initial_state as initial_state,
 )

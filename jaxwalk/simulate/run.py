@@ -15,7 +15,7 @@ from jaxwalk.simulate.dataset import build_trajectory_dataset
 from jaxwalk.files import write_atomically
 from jaxwalk.simulate.output import check_drawable, check_outputs
 from jaxwalk.simulate.recorder import Trajectory, record_walk
-from jaxwalk.simulate.start import GaitNotFound, find_start_gait, initial_state
+from jaxwalk.simulate.start import GaitNotFound, check_start, find_start_gait, initial_state
 from jaxwalk.status import STATUS_MEANINGS, Status, describe
 from jaxwalk.walker import as_params
 
@@ -61,6 +61,7 @@ def run_simulation(
         v = gait.v
     else:
         v = np.asarray(config.v0)
+        check_start(model, params, v, f"{config.source}: [simulate]")
     y0, phase0, ctx0 = initial_state(model, params, v, config.drop)
     from tqdm.auto import tqdm
 

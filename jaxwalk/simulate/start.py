@@ -15,7 +15,7 @@ import numpy as np
 
 from jaxwalk import compiling
 from jaxwalk.errors import ConfigError
-from jaxwalk.walker import Walker
+from jaxwalk.walker import Walker, is_state
 
 
 class GaitNotFound(ConfigError):
@@ -40,6 +40,22 @@ def find_start_gait(model: Walker, params, solver=None, newton=None):
     newton = newton or NewtonOptions()
     gait = _gait_search(model, solver, newton)(params, model.initial_guess(params))
     return jax.tree_util.tree_map(np.asarray, gait)
+
+
+def check_start(model: Walker, params, v, where: str) -> None:
+    """Refuse a given start ``v`` ``(n_v,)`` that is not a state of the walker
+    (:func:`jaxwalk.walker.is_state`: the heel-rise walker's trailing ankle below
+    the ground), with a :class:`~jaxwalk.errors.ConfigError` that names a state on
+    the section's edge. Walked, such a start would end its first step with a
+    failure of the start, not of the walker (``scuffing``)."""
+    import jax.numpy as jnp
+
+    v = jnp.asarray(v, jnp.float64)
+    if not bool(is_state(model, v, params)):
+        edge = [round(float(x), 12) for x in model.into_section(v, params)]
+        given = [float(x) for x in v]
+        raise ConfigError(f"{where} v0 = {given} is not a state of the {model.name} walker "
+                          f"(outside its section; a state on the section's edge: {edge})")
 
 
 def initial_state(model: Walker, params, v, drop: float = 0.0):
