@@ -15,6 +15,7 @@ arclength instead (Keller's method):
 - **predictor** ``u_pred = u + ds t``;
 - **corrector**: Newton on ``F(u) = 0`` with ``t . (u - u_prev) = ds`` (the
   pseudo-arclength constraint), ``(n_v + 1)``-square, regular through folds;
+  every iterate is kept in the walker's section (:meth:`CycleProblem.project`);
 - **step-size control**: a step whose corrector fails (a step of the walker
   failing, no convergence in ``max_corrector``, a non-finite number) or whose
   tangent turns by more than ``max_turn`` is retried with ``ds * shrink``;
@@ -166,7 +167,9 @@ class CycleProblem:
 
     Hashable by value (part of the jit key). Any object with this
     ``residual(params)`` and ``period`` serves the continuation: ``residual``
-    returns ``u = (v, p) -> (F(u) (n_v,), int8 status)``, forward-mode differentiable.
+    returns ``u = (v, p) -> (F(u) (n_v,), int8 status)``, forward-mode differentiable;
+    an optional ``project(params)`` (``u -> u``) keeps the corrector's iterates
+    where ``F`` is defined.
     """
 
     model: Walker
@@ -188,9 +191,29 @@ class CycleProblem:
 
         return residual
 
+    def project(self, params):
+        """``u -> u`` with ``v`` moved into the walker's section at ``u``'s parameter
+        (:meth:`~jaxwalk.walker.Walker.into_section`; a state is left bit for bit),
+        so that the corrector goes on from the section's edge where its linear
+        step crossed it, as Newton does in :func:`jaxwalk.gait.find_gait`."""
 
-def correct(residual, u_pred: Array, u_base: Array, t_base: Array, ds: Array, options: ArclengthOptions):
-    """Newton on ``F(u) = 0``, ``t_base . (u - u_base) = ds`` from ``u_pred``.
+        def project(u):
+            p = with_parameter(params, self.name, u[-1])
+            return jnp.concatenate([self.model.into_section(u[:-1], p), u[-1:]])
+
+        return project
+
+
+def equations(problem, params):
+    """``(residual, project)`` of ``problem`` at ``params``: ``project`` keeps a corrector's
+    iterate in the section (``problem.project(params)``; the identity for a problem without one)."""
+    project = problem.project(params) if hasattr(problem, "project") else (lambda u: u)
+    return problem.residual(params), project
+
+
+def correct(residual, project, u_pred: Array, u_base: Array, t_base: Array, ds: Array, options: ArclengthOptions):
+    """Newton on ``F(u) = 0``, ``t_base . (u - u_base) = ds`` from ``u_pred``, each
+    iterate (the prediction too) passed through ``project`` (:func:`equations`).
 
     After the update that falls below ``tol`` one more evaluation gives the
     Jacobian at the converged point itself. Returns ``(u, jacobian, status,
@@ -216,9 +239,9 @@ def correct(residual, u_pred: Array, u_base: Array, t_base: Array, ds: Array, op
             running,
         )
         move = ~(failed | bad | converged)
-        return jnp.where(move, u + update, u), it, converged | (~failed & (size < options.tol)), status, jac
+        return jnp.where(move, project(u + update), u), it, converged | (~failed & (size < options.tol)), status, jac
 
-    c0 = (u_pred, jnp.zeros((), jnp.int32), jnp.asarray(False), running, jnp.full((n - 1, n), jnp.nan, u_pred.dtype))
+    c0 = (project(u_pred), jnp.zeros((), jnp.int32), jnp.asarray(False), running, jnp.full((n - 1, n), jnp.nan, u_pred.dtype))
     u, it, _, status, jac = jax.lax.while_loop(lambda c: c[3] == running, body, c0)
     return u, jac, status, it
 
@@ -259,9 +282,9 @@ def _empty_record(n_v: int, n_points: int, dtype) -> Branch:
     )
 
 
-def _start(residual, u0: Array, t0: Array, ds0: Array, options: ArclengthOptions) -> BranchCarry:
+def _start(residual, project, u0: Array, t0: Array, ds0: Array, options: ArclengthOptions) -> BranchCarry:
     """The first point: the corrector on ``t0 . (u - u0) = ds0`` from ``u0 + ds0 t0``, its tangent along ``t0``."""
-    u, jac, status, it = correct(residual, u0 + ds0 * t0, u0, t0, ds0, options)
+    u, jac, status, it = correct(residual, project, u0 + ds0 * t0, u0, t0, ds0, options)
     t = tangent(jac, t0)
     ok = (status == Status.OK) & jnp.all(jnp.isfinite(t))
     record = _empty_record(u0.shape[0] - 1, options.max_steps + 1, u0.dtype)
@@ -275,9 +298,9 @@ def _start(residual, u0: Array, t0: Array, ds0: Array, options: ArclengthOptions
     )
 
 
-def _step(residual, c: BranchCarry, p_min: Array, p_max: Array, options: ArclengthOptions) -> BranchCarry:
+def _step(residual, project, c: BranchCarry, p_min: Array, p_max: Array, options: ArclengthOptions) -> BranchCarry:
     """One predictor-corrector try and its step-size decision (the loop's body)."""
-    u, jac, status, it = correct(residual, c.u + c.ds * c.t, c.u, c.t, c.ds, options)
+    u, jac, status, it = correct(residual, project, c.u + c.ds * c.t, c.u, c.t, c.ds, options)
     t = tangent(jac, c.t)
     turned = jnp.dot(t, c.t) < math.cos(options.max_turn)
     ok = (status == Status.OK) & jnp.all(jnp.isfinite(t)) & ~turned
@@ -320,12 +343,12 @@ def continue_branch(problem, params, v0: Array, p0: Array, t0: Array, ds0: Array
     Returns:
         :class:`Branch`.
     """
-    residual = problem.residual(params)
+    residual, project = equations(problem, params)
     u0 = jnp.concatenate([v0, jnp.asarray(p0, v0.dtype)[None]])
     t0 = jnp.asarray(t0, v0.dtype) / jnp.linalg.norm(t0)
-    carry = _start(residual, u0, t0, jnp.asarray(ds0, v0.dtype), options)
+    carry = _start(residual, project, u0, t0, jnp.asarray(ds0, v0.dtype), options)
     cond = lambda c: (c.stop == Stop.RUNNING) & (c.attempts < options.max_attempts)
-    out = jax.lax.while_loop(cond, lambda c: _step(residual, c, p_min, p_max, options), carry)
+    out = jax.lax.while_loop(cond, lambda c: _step(residual, project, c, p_min, p_max, options), carry)
     return out.record._replace(stop=out.stop, failure=out.failure, attempts=out.attempts)
 
 

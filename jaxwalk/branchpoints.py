@@ -37,7 +37,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxwalk import compiling
-from jaxwalk.arclength import ArclengthOptions, Branch, CycleProblem, continue_branch, correct
+from jaxwalk.arclength import ArclengthOptions, Branch, CycleProblem, continue_branch, correct, equations
 from jaxwalk.bifurcation import Kind, indicators
 from jaxwalk.status import Status
 
@@ -79,8 +79,8 @@ def _corrector(problem, options: ArclengthOptions):
     """Batched corrector: rows ``(params, u_base, t_base, s)`` -> ``(u, jacobian, status)``."""
 
     def one(params, u_base, t_base, s):
-        residual = problem.residual(params)
-        u, jac, status, _ = correct(residual, u_base + s * t_base, u_base, t_base, s, options)
+        residual, project = equations(problem, params)
+        u, jac, status, _ = correct(residual, project, u_base + s * t_base, u_base, t_base, s, options)
         return u, jac, status
 
     # A walker's cycles compile with its options; a problem without a model

@@ -63,6 +63,64 @@ def test_turns_at_an_analytic_fold_and_locates_it():
     assert abs(found.parameter[1] - 1.0) < 1e-6 and abs(found.multipliers[1, 0] + 1.0) < 1e-5
 
 
+@dataclasses.dataclass(frozen=True)
+class EdgeMap:
+    """A map onto the edge of its section, as the heel-rise walker's heel-down gaits:
+    states are ``b >= a^2``, ``P(a, b; p) = (g, g^2)`` with ``g = a / 2 + p``, so the
+    gaits ``a = 2 p``, ``b = 4 p^2`` lie on the edge, which is convex: every linear
+    step along them (the predictor, Newton's updates) lands below it, where the map
+    fails as the walker's step does (``scuffing``)."""
+
+    period: int = 1
+    projected: bool = True
+
+    def residual(self, params):
+        def residual(u):
+            a, b, p = u
+            g = 0.5 * a + p
+            outside = b < a * a - 1e-12
+            return jnp.stack([g - a, g * g - b]), jnp.where(outside, jnp.int8(Status.SCUFFING), jnp.int8(Status.OK))
+
+        return residual
+
+    def project(self, params):
+        def project(u):
+            a, b, p = u
+            return jnp.stack([a, jnp.where(b < a * a - 1e-12, a * a, b), p]) if self.projected else u
+
+        return project
+
+
+def test_the_corrector_goes_on_from_the_section_edge():
+    """With iterates kept in the section the branch follows the edge to its bound;
+    without, every corrector's first evaluation lies outside and the branch stops."""
+    options = ArclengthOptions(ds=0.05, ds_max=0.1, max_steps=60)
+    run = jax.jit(lambda problem: continue_branch(problem, {}, jnp.zeros(2), 0.0, start_direction(2), 0.0, -1.0, 0.5, options),
+                  static_argnums=0)
+    branch = run(EdgeMap())
+    n = int(branch.n_points)
+    assert branch.stop == Stop.PARAMETER_BOUND and n > 5
+    a, b, p = np.asarray(branch.v[:n, 0]), np.asarray(branch.v[:n, 1]), np.asarray(branch.p[:n])
+    np.testing.assert_allclose(a, 2 * p, atol=1e-9)
+    np.testing.assert_allclose(b, a * a, atol=1e-9)
+    stuck = run(EdgeMap(projected=False))
+    assert stuck.stop == Stop.STEP_TOO_SMALL and int(stuck.n_points) == 1
+    assert stuck.failure == Status.SCUFFING
+
+
+def test_a_walkers_problem_projects_as_its_section_does():
+    """``CycleProblem.project`` moves a heel-rise point with the trailing ankle below the
+    ground onto the edge at ``u``'s parameter, and leaves a state and the parameter bit for bit."""
+    model = get_model("flatfoot_heel_rise")
+    problem = CycleProblem(model, "k")
+    params = model.default_params()
+    project = problem.project(params)
+    sunk = jnp.array([0.3245, -0.2, -0.3734, 0.05])
+    np.testing.assert_array_equal(project(sunk), [0.3245, -0.3245, -0.3734, 0.05])
+    state = jnp.array([0.3245, -0.5, -0.3734, 0.05])
+    np.testing.assert_array_equal(project(state), state)
+
+
 @pytest.fixture(scope="module")
 def branches():
     """Period-1 branches of the simplest walker from its stable gait at three slopes, towards larger slopes."""
