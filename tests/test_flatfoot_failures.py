@@ -99,3 +99,48 @@ def test_a_step_from_a_state_the_walker_cannot_hold_is_named_by_its_first_cause(
     _, res = step_fn(v, p)
     assert int(res.status) == Status.RUNNING and float(res.time) == 0.0
     assert failure_names(p, res)[1] == "running"
+
+
+def test_a_knee_stop_pulled_by_an_impact_is_knee_buckled_in_both_implementations():
+    """With ``stance_latch = 0`` a knee on its extension stop alone can only push;
+    an impact whose knee-stop impulse pulls is ``KNEE_BUCKLED`` (the ``knee_buckle``
+    guard's name for the same pull as a force), not ``RUNNING``, which names a
+    ground contact that pulls. A pulling ground contact still comes first, a
+    slide after. The same synthetic impulses through the SciPy walker's rule."""
+    import jax.numpy as jnp
+
+    from tests.reference.flatfoot import constraints as con
+    from tests.reference.flatfoot.params import PAPER, PAPER_GUESS
+    from tests.reference.flatfoot.resets import impulse_status
+    from tests.reference.flatfoot.step import section_to_state
+
+    def ours(stance_latch, **rows):
+        params = with_params(MODEL.default_params(), **{**PAPER, "stance_latch": stance_latch})
+        y, _, ctx = MODEL.section_to_state(jnp.asarray(PAPER_GUESS), params)
+        imp = jnp.zeros(ph.N_CONSTRAINTS).at[ph.ANKLE_1_Y].set(1.0)
+        for name, value in rows.items():
+            imp = imp.at[getattr(ph, name)].set(value)
+        checks = ev.impulse_failures(y[:6], imp, params, ctx)
+        return ev._event_status(ev.KNEE_STRIKE, y[:6], y[6:], params, ctx, *checks)
+
+    def reference(stance_latch, **rows):
+        p = {**PAPER, "stance_latch": stance_latch}
+        y, _, ctx = section_to_state(np.asarray(PAPER_GUESS), p)
+        imp = np.zeros(con.N_C)
+        imp[con.ANKLE_1_Y] = 1.0
+        for name, value in rows.items():
+            imp[getattr(con, name)] = value
+        return impulse_status(y[:6], imp, p, ctx)
+
+    cases = [  # (stance_latch, impulses beside the stance foot's push of 1) -> status
+        (0.0, {"KNEE_1": -0.5}, Status.KNEE_BUCKLED),
+        (0.0, {"KNEE_2": -0.5}, Status.KNEE_BUCKLED),
+        (1.0, {"KNEE_1": -0.5}, Status.IN_PROGRESS),  # a latch may pull
+        (0.0, {"KNEE_1": 0.5}, Status.IN_PROGRESS),  # the stop pushes
+        (0.0, {"KNEE_1": -0.5, "ANKLE_2_Y": -0.5}, Status.RUNNING),  # the landing ankle pulls too
+        (0.0, {"KNEE_1": -0.5, "ANKLE_1_X": 5.0}, Status.KNEE_BUCKLED),  # and slides
+    ]
+    names = {Status.KNEE_BUCKLED: "knee_buckled", Status.RUNNING: "running", Status.IN_PROGRESS: None}
+    for latch, rows, expected in cases:
+        assert int(ours(latch, **rows)) == expected, (latch, rows)
+        assert reference(latch, **rows) == names[expected], (latch, rows)

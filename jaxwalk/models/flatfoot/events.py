@@ -278,18 +278,20 @@ def impulse_failures(q, impulses, params, ctx):
     foot: the trailing foot is assumed not to slip at toe-strike, and in the
     heel-rise walker neither is a raised stance toe at knee- or heel-strike;
     docs/model.md, "The heel-rise walker").
-    A knee without a latch (``stance_latch = 0``) must not be pulled by its stop.
+    A knee without a latch (``stance_latch = 0``) must not be pulled by its stop
+    (``buckles``: as the ``knee_buckle`` guard for the force, ``KNEE_BUCKLED``).
+    Returns ``(pulls, slides, buckles)``, booleans.
     """
     normal = normal_impulses(q, impulses, params, ctx)
     scale = params["impulse_tol"] * jnp.max(jnp.abs(normal)) + IMPULSE_FLOOR
     pulls = jnp.min(normal[_CHECKED_IMPULSES]) < -scale
     knees = jnp.minimum(impulses[ph.KNEE_1], impulses[ph.KNEE_2])
-    pulls = pulls | ((params["stance_latch"] < 0.5) & (knees < -scale))
+    buckles = (params["stance_latch"] < 0.5) & (knees < -scale)
     cone = lambda tx, ny: params["mu"] * ny - jnp.abs(tx)
     slides = jnp.minimum(
         cone(impulses[ph.ANKLE_1_X], impulses[ph.ANKLE_1_Y]), cone(impulses[ph.ANKLE_2_X], impulses[ph.ANKLE_2_Y])
     ) < -scale
-    return pulls, slides
+    return pulls, slides, buckles
 
 
 def _latch_after_strike(q, params, phase, ctx):
@@ -333,9 +335,10 @@ def swap_legs(y, params, ctx):
     return jnp.concatenate([q_new, qd[perm]]), ctx_new, shift
 
 
-def _event_status(guard, q, qd, params, ctx, pulls, slides):
+def _event_status(guard, q, qd, params, ctx, pulls, slides, buckles):
     """Status after ``guard`` fired (``IN_PROGRESS`` if the walk goes on); ``pulls``,
-    ``slides``: the impact's impulse checks (:func:`impulse_failures`)."""
+    ``slides``, ``buckles``: the impact's impulse checks (:func:`impulse_failures`),
+    in the order of the force guards (a pulling contact, a pulled knee stop, a slide)."""
     is_ = lambda g: guard == g
     heel_velocity = jax.jvp(lambda q_: geo.free_foot(q_, params, 2)[0], (q,), (qd,))[1]
     status = jnp.select(
@@ -348,6 +351,7 @@ def _event_status(guard, q, qd, params, ctx, pulls, slides):
     # The heel gate opened on a heel already below ground and rising: a scuff, not a strike.
     status = jnp.where(is_(HEEL_STRIKE) & (heel_velocity[1] >= 0.0), jnp.int8(Status.SCUFFING), status)
     status = jnp.where((status == Status.IN_PROGRESS) & pulls, jnp.int8(Status.RUNNING), status)
+    status = jnp.where((status == Status.IN_PROGRESS) & buckles, jnp.int8(Status.KNEE_BUCKLED), status)
     status = jnp.where((status == Status.IN_PROGRESS) & slides, jnp.int8(Status.SLIPPING), status)
     status = jnp.select(
         [status != Status.IN_PROGRESS, is_(SLIP), is_(BUCKLE), is_(FOOT_ROLL)],
@@ -416,9 +420,9 @@ def on_event(model, guard, t, y, params, phase, ctx):
         [onto_next, is_(TOE_STRIKE)], [ph.PHASE_MASKS[next_phase], ph.TOE_STRIKE_MASK], jnp.zeros(ph.N_CONSTRAINTS)
     )
     y_imp, impulses = model.apply_impact(y, params, ctx_new, mask)
-    pulls, slides = impulse_failures(q, impulses, params, ctx_new)
+    pulls, slides, buckles = impulse_failures(q, impulses, params, ctx_new)
 
-    status = _event_status(guard, q, qd, params, ctx, pulls, slides)
+    status = _event_status(guard, q, qd, params, ctx, pulls, slides, buckles)
 
     # Toe-strike ends the step: swap the legs and move the frame.
     done = is_(TOE_STRIKE)

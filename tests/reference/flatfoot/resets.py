@@ -93,7 +93,8 @@ def _normal(a: np.ndarray, c: np.ndarray) -> float:
 
 
 def impulse_status(q: np.ndarray, imp: np.ndarray, p: Mapping[str, float], ctx: dict) -> str | None:
-    """``"running"`` if foot 1 (flat or on its toe), toe 2 or the landing ankle pulls, ``"slipping"`` if foot 1
+    """``"running"`` if foot 1 (flat or on its toe), toe 2 or the landing ankle pulls, ``"knee_buckled"`` if
+    a knee on its stop alone (``stance_latch = 0``) is pulled, ``"slipping"`` if foot 1
     or the landing ankle leaves its friction cone, beyond ``impulse_tol`` of the
     impact's largest normal impulse (docs/model.md, "Impulses"). A pivoting foot's impulse
     lies along the massless foot: its friction is checked on the force that follows (``slip``)."""
@@ -109,11 +110,10 @@ def impulse_status(q: np.ndarray, imp: np.ndarray, p: Mapping[str, float], ctx: 
     ])  # fmt: skip
     scale = p["impulse_tol"] * np.max(np.abs(normal)) + IMPULSE_FLOOR
     pulls = min(normal[0], normal[1], normal[3], normal[4]) < -scale
-    if p["stance_latch"] < 0.5:
-        pulls = pulls or min(imp[con.KNEE_1], imp[con.KNEE_2]) < -scale
+    buckles = p["stance_latch"] < 0.5 and min(imp[con.KNEE_1], imp[con.KNEE_2]) < -scale
     cone = lambda tx, ny: p["mu"] * ny - abs(tx)
     slides = min(cone(imp[con.ANKLE_1_X], imp[con.ANKLE_1_Y]), cone(imp[con.ANKLE_2_X], imp[con.ANKLE_2_Y])) < -scale
-    return "running" if pulls else "slipping" if slides else None
+    return "running" if pulls else "knee_buckled" if buckles else "slipping" if slides else None
 
 
 def swap_legs(y: np.ndarray, p: Mapping[str, float], ctx: dict):
