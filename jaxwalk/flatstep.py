@@ -235,8 +235,10 @@ def _advance(model: Walker, params, opts: SolverOptions, c: _Carry) -> _Carry:
     out_of_steps = ~at_start & ~crossed & ~timeout & (n_steps >= opts.max_solver_steps)
     event = at_start | (crossed & located)
     ended = event | timeout | out_of_steps
-    t_ev = jnp.where(at_start, c.t, t_ev)
-    y_ev = jnp.where(at_start, c.y, jnp.where(event, y_ev, a.y1))
+    # Out of steps on a rejected try: the lane ends where it is, at its last accepted step (as
+    # diffrax does), not at the try (a NaN try would read NONFINITE; any other, a wrong state).
+    t_ev = jnp.where(at_start, c.t, jnp.where(event | moved, t_ev, c.t))
+    y_ev = jnp.where(at_start, c.y, jnp.where(event, y_ev, jnp.where(moved, a.y1, c.y)))
     result = diffrax.RESULTS.where(
         event,
         diffrax.RESULTS.event_occurred,

@@ -15,7 +15,7 @@ from jaxwalk.flatstep import implicit_root, locate_event
 from jaxwalk.gait import find_gait
 from jaxwalk.models import get_model
 from jaxwalk.status import Status
-from jaxwalk.step import SolverOptions, step_map
+from jaxwalk.step import SolverOptions, run_step, step_map
 
 FLAT = SolverOptions(engine="flat")
 NESTED = SolverOptions(engine="nested")
@@ -133,6 +133,23 @@ def test_flat_vmap_equals_single_runs_and_failures_are_statuses():
         assert int(getattr(batch.stats, field)[-1]) == int(getattr(nested.stats, field))
     assert int(nested.stats.failure_guard) == SIMPLEST.guards.index("stall")
     assert np.isnan(batch.lambda_max[-1])
+
+
+def test_out_of_steps_on_a_rejected_try_ends_at_the_last_accepted_step():
+    """The simplest walker's first step with 8 solver steps allowed: the 8th try is
+    rejected (measured: the flat engine reported its end, t = 2.506, where the
+    nested one, diffrax, ends at its last accepted step, t = 2.022). Both engines
+    end ``solver_failed`` at the same time and state."""
+    p = SIMPLEST.default_params()
+    y0, phase0, ctx0 = SIMPLEST.section_to_state(SIMPLEST.initial_guess(p), p)
+    ends = []
+    for engine in ("flat", "nested"):
+        opts = SolverOptions(engine=engine, max_solver_steps=8)
+        ends.append(jax.jit(lambda y: run_step(SIMPLEST, p, y, phase0, ctx0, opts))(y0))
+    flat, nested = ends
+    assert int(flat.status) == int(nested.status) == Status.SOLVER_FAILED
+    np.testing.assert_allclose(float(flat.time), float(nested.time), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(flat.y, nested.y, rtol=0, atol=1e-12)
 
 
 def test_unknown_engine_is_an_error():
