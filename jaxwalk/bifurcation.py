@@ -15,8 +15,8 @@ Where the line goes on but its gait is lost (Newton fails on one side), the
 edge is located by bisection on "the gait is followed there" (a failure is
 confirmed by following the gait to it in steps, and the grid point beyond is
 itself re-solved from the gait next to it) and labelled **grazing**
-when the failure beyond it is a step's (a guard reached: scuffing, a fall,
-...: the event sequence changes), **fold** when a real multiplier is within
+when the failure beyond it is a guard's (:data:`GUARD_FAILURES`: scuffing, a
+fall, ...: the event sequence changes), **fold** when a real multiplier is within
 ``fold_window`` of +1 at the edge (the gait turns back: a natural-parameter
 line cannot follow it), and **lost** otherwise.
 
@@ -80,7 +80,8 @@ KIND_MEANINGS = {
     Kind.FLIP: "flip (period doubling): a real multiplier through -1",
     Kind.NEIMARK_SACKER: "Neimark-Sacker: a complex pair of multipliers through the unit circle",
     Kind.GRAZING: "grazing: the gait is lost where a step starts to fail (a guard reaches zero: scuffing, a fall, ...)",
-    Kind.LOST: "the gait is lost (Newton fails beyond) with no multiplier near +1 and no failing step",
+    Kind.LOST: ("the gait is lost (Newton fails beyond) with no multiplier near +1 and no guard failing the step "
+                "(beyond: no convergence, a time limit, the solver, too many events, a non-finite state)"),
     Kind.BRANCH_POINT: "branch point: a real multiplier through +1 where the branch does not turn (branches cross)",
     Kind.BORDER_COLLISION: ("border collision: the gait goes on but its step's event sequence changes (checked: the "
                             "logged sequences differ on the two sides); the multipliers may jump there"),
@@ -373,13 +374,20 @@ def _collision_row(c: dict) -> dict:
             "jumps": jumps(indicators(c["multipliers_lo"])[None], indicators(c["multipliers_hi"])[None])[0]}
 
 
+#: The failures of a step that a guard reaching zero names: beyond an edge, one of
+#: these makes it grazing. The others (a phase's time limit, the solver, too many
+#: events, Newton, a non-finite state, a shorter cycle) name no guard: lost.
+GUARD_FAILURES = frozenset({Status.FELL, Status.STALLED, Status.RUNNING, Status.SHANK_RELEASING, Status.SCUFFING,
+                            Status.KNEE_BUCKLED, Status.SLIPPING, Status.FOOT_ROLLING})
+
+
 def _edge_row(r: dict, options: BifurcationOptions) -> dict:
-    """An edge's kind: a fold where a real multiplier is near +1, grazing where a step failed beyond, else lost."""
+    """An edge's kind: a fold where a real multiplier is near +1, grazing where a guard
+    failed the step beyond (:data:`GUARD_FAILURES`), else lost."""
     mu = r["multipliers"]
     real = mu[np.abs(mu.imag) < 1e-9].real
     near_one = real.size and np.min(np.abs(real - 1.0)) < options.fold_window
-    step_failed = r["beyond"] not in (Status.NO_CONVERGENCE, Status.NONFINITE, Status.NOT_DIFFERENTIABLE)
-    kind = Kind.FOLD if near_one else Kind.GRAZING if step_failed else Kind.LOST
+    kind = Kind.FOLD if near_one else Kind.GRAZING if int(r["beyond"]) in GUARD_FAILURES else Kind.LOST
     return {**r, "kind": kind, "status": Status.OK}
 
 

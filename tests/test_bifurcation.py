@@ -7,7 +7,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from jaxwalk.bifurcation import Kind, follow, indicators, locate
+from jaxwalk.bifurcation import BifurcationOptions, Kind, follow, indicators, locate
 from jaxwalk.models import get_model
 from jaxwalk.status import Status
 from jaxwalk.step import step_map
@@ -122,3 +122,22 @@ def test_progress_counts_every_round_of_solves(period_one):
     found = locate(SIMPLEST, lines, "gamma", failed, v, mu, progress=bar)
     assert found.kind.tolist() == flips.kind.tolist() == [Kind.FLIP]
     assert bar.total == bar.n
+
+
+def test_an_edge_is_grazing_only_where_a_guard_failed_the_step_beyond():
+    """A grazing edge names a guard reaching zero; a failure beyond that names none
+    (a phase's time limit, the solver, too many events, a shorter cycle) is ``lost``."""
+    from jaxwalk.bifurcation import GUARD_FAILURES, _edge_row
+
+    options = BifurcationOptions()
+    far = np.array([0.5, -0.3, 0.0], np.complex128)
+    kind = lambda beyond, mu=far: _edge_row({"multipliers": mu, "beyond": np.int8(beyond)}, options)["kind"]
+    for status in Status:
+        expected = Kind.GRAZING if status in GUARD_FAILURES else Kind.LOST
+        assert kind(status) == expected, status.name
+    for status in (Status.TIMEOUT, Status.SOLVER_FAILED, Status.TOO_MANY_EVENTS, Status.CYCLE_NOT_FOUND,
+                   Status.NO_CONVERGENCE, Status.NONFINITE):
+        assert kind(status) == Kind.LOST, status.name
+    for status in (Status.SCUFFING, Status.FELL, Status.SLIPPING, Status.FOOT_ROLLING):
+        assert kind(status) == Kind.GRAZING, status.name
+    assert kind(Status.TIMEOUT, np.array([0.99, 0.1, 0.0], np.complex128)) == Kind.FOLD  # a multiplier near +1
