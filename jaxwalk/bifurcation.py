@@ -100,7 +100,7 @@ class BifurcationOptions:
 
     Attributes:
         tol: half-width of the final bracket (parameter units): the located value's accuracy.
-        max_iter: root-finder iterations per bracket before ``NO_CONVERGENCE``.
+        max_iter: root-finder iterations per bracket before ``NOT_LOCATED``.
         fold_window: at a lost gait's edge, a real multiplier within this of +1 makes it a fold;
             a located fold, flip or Neimark-Sacker point needs a multiplier within it of
             +1 or -1 (a pair whose product is within it of 1) at both ends of its
@@ -121,7 +121,7 @@ class Bifurcations(NamedTuple):
         line: index of the line (row of the lines given).
         period: k of the map whose multipliers cross (1: the period-1 gait).
         status: int8 ``OK``, or why the location failed (its bracket is then the row's ``parameter``
-            midpoint, not to ``tol``): ``NO_CONVERGENCE`` also where a sign change's
+            midpoint, not to ``tol``): ``NOT_LOCATED`` where its bracket was not closed, also where a sign change's
             bracket met a third event sequence inside (two collisions between grid points).
         v: ``(n_v,)`` the cycle's point at the located parameter (on the gait's side for
             edges, on the lower parameter's side for border collisions and jumps).
@@ -480,7 +480,7 @@ def _shrink_signs(solve, brackets: list[dict], options: BifurcationOptions, roun
     Every trial's gait must take the bracket's event sequence: one that does
     not lies beyond a border collision inside the bracket (two between
     neighbouring grid points), where the test function need not be
-    continuous; that bracket ends ``NO_CONVERGENCE``, unlocated.
+    continuous; that bracket ends ``NOT_LOCATED``.
     """
     if not brackets:
         rounds.no_signs()
@@ -506,7 +506,7 @@ def _shrink_signs(solve, brackets: list[dict], options: BifurcationOptions, roun
         idx = np.flatnonzero(active)
         st, v_t, mu, s_t = solve(trial[idx], line[idx], i[idx], ((1 - w) * v_lo + w * v_hi)[idx])
         other = np.any((s_t != seq[idx]) & (seq[idx] != 0), axis=-1)  # 0: the bracket's sequence is not known
-        st = np.where((st == Status.OK) & other, np.int8(Status.NO_CONVERGENCE), st)
+        st = np.where((st == Status.OK) & other, np.int8(Status.NOT_LOCATED), st)
         failed = st != Status.OK
         state[idx[failed]] = st[failed]
         good = idx[~failed]
@@ -522,7 +522,7 @@ def _shrink_signs(solve, brackets: list[dict], options: BifurcationOptions, roun
                 f_lo[g] *= 0.5 if side[g] == -1 else 1.0
                 side[g] = -1
     state[(state == Status.IN_PROGRESS) & (np.abs(hi - lo) <= 2 * options.tol)] = Status.OK  # closed by the last trial
-    state[state == Status.IN_PROGRESS] = Status.NO_CONVERGENCE
+    state[state == Status.IN_PROGRESS] = Status.NOT_LOCATED
     rounds.signs_done()
     rounds.advance(signs=True)
     mid = 0.5 * (lo + hi)

@@ -42,7 +42,7 @@ def locate_changes(solve, changes: list[tuple], tol: float, rounds) -> tuple[lis
     (:func:`shrink_collisions`); the stretch from there to the upper end is a
     new bracket if its two ends still differ (a third sequence), up to
     :data:`MAX_PASSES` passes; a bracket still open after them is reported as
-    an unlocated collision (status ``NO_CONVERGENCE``). Returns ``(collisions,
+    an unlocated collision (status ``NOT_LOCATED``). Returns ``(collisions,
     smooth)``: the collisions (:func:`shrink_collisions`'s dicts) and the
     stretches of one sequence between them, ``(line, i, lo, hi, skip)``, where a
     test function's sign change is a multiplier's continuous crossing.
@@ -68,7 +68,7 @@ def locate_changes(solve, changes: list[tuple], tol: float, rounds) -> tuple[lis
 
 def _unlocated(line, i, lo: dict, hi: dict) -> dict:
     """A sequence-change bracket left open (more changes in it than :data:`MAX_PASSES`)."""
-    return {"line": line, "i": i, "parameter": 0.5 * (lo["x"] + hi["x"]), "status": Status.NO_CONVERGENCE,
+    return {"line": line, "i": i, "parameter": 0.5 * (lo["x"] + hi["x"]), "status": Status.NOT_LOCATED,
             "lo": lo["x"], "hi": hi["x"], "v_lo": lo["v"], "multipliers_lo": lo["mu"], "sequences_lo": lo["s"],
             "v_hi": hi["v"], "multipliers_hi": hi["mu"], "sequences_hi": hi["s"]}
 

@@ -161,7 +161,7 @@ def locate_on_branches(problem, params, branches: Branch, tol: float = 1e-6, max
                 hi[g], f_hi[g] = trial[g], f_t[j]
                 f_lo[g] *= 0.5 if side[g] == -1 else 1.0
                 side[g] = -1
-    state[state == Status.IN_PROGRESS] = Status.NO_CONVERGENCE
+    state[state == Status.IN_PROGRESS] = Status.NOT_LOCATED
     mid = 0.5 * (lo + hi)
     u_m, jac_m, st_m = solve_at(problem, options, rows, u_i, t_i, mid)
     t_next = np.asarray(branches.tangent)[b, i + 1]

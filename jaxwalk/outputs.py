@@ -55,6 +55,8 @@ class Output:
         meaning: one phrase for a figure's title; default the dataset's ``long_name``.
         finite_where_ok: a point whose status is ``OK`` must have it finite
             (else its status becomes ``NONFINITE``).
+        inf_is_a_value: with ``finite_where_ok``, an infinity is a result (the
+            gait sensitivity norm of an unstable gait) and only NaN is not.
         differentiable: an optimisation may name it (an objective or a held quantity).
         flags: a status variable: int8 :class:`~jaxwalk.status.Status` codes with
             CF flag attributes, ``NOT_COMPUTED`` in a store's unwritten chunks.
@@ -81,6 +83,7 @@ class Output:
     label: str | None = None
     meaning: str | None = None
     finite_where_ok: bool = False
+    inf_is_a_value: bool = False
     differentiable: bool = False
     flags: bool = False
     plot: int | None = None
@@ -146,11 +149,12 @@ def take(results: Mapping[str, np.ndarray], outputs: Iterable[Output], grid: tup
 
 def nonfinite(status: np.ndarray, arrays: Mapping[str, np.ndarray], outputs: Iterable[Output]) -> np.ndarray:
     """``status`` with ``NONFINITE`` where it is ``OK`` but an output declared
-    ``finite_where_ok`` is not finite (any of its trailing entries)."""
+    ``finite_where_ok`` is not finite (any of its trailing entries; NaN only, for
+    one whose ``inf_is_a_value``)."""
     finite = np.ones(status.shape, bool)
     for o in outputs:
         if o.finite_where_ok:
-            ok = np.isfinite(arrays[o.name])
+            ok = ~np.isnan(arrays[o.name]) if o.inf_is_a_value else np.isfinite(arrays[o.name])
             finite &= ok.reshape(status.shape + (-1,)).all(axis=-1)
     return np.where((status == Status.OK) & ~finite, np.int8(Status.NONFINITE), status).astype(np.int8)
 

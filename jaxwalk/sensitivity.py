@@ -298,7 +298,7 @@ def gait_sensitivity(
     # has_aux keeps the integer status and the undifferentiated fields out of the tangents.
     jac, metrics = jacfwd_with_aux(fn, x)
     d_v, d_lam, d_speed, d_len, d_period, d_cot = jac
-    needed = jnp.concatenate([d_v.ravel(), d_lam, d_speed, d_len, d_period])
+    needed = jnp.concatenate([d_v.ravel(), d_lam, d_speed, d_len, d_period, d_cot])
     status = metrics.status
     status = jnp.where((status == Status.OK) & ~jnp.all(jnp.isfinite(needed)), jnp.int8(Status.NOT_DIFFERENTIABLE), status)
     return Sensitivity(metrics, d_v, d_lam, d_speed, d_len, d_period, d_cot, status.astype(jnp.int8))

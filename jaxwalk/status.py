@@ -37,31 +37,38 @@ class Status(enum.IntEnum):
     UNSTABLE_GAIT = 18
     FOOT_ROLLING = 19
     NOT_A_STATE = 20
+    NOT_LOCATED = 21
     IN_PROGRESS = 127  # internal: a step still running; never written to a dataset
 
 
 #: One sentence per status, used in dataset attributes, docs and plot legends.
 STATUS_MEANINGS: dict[Status, str] = {
     Status.OK: "periodic gait found (or step completed)",
-    Status.FELL: "fell: a leg angle left its range or the hip dropped too low",
+    Status.FELL: ("fell: a leg angle left its range or the hip dropped too low (the compass walker: also a step "
+                  "that starts with the new stance foot behind the hip)"),
     Status.STALLED: "stalled: the walker stopped or moved backwards",
-    Status.TIMEOUT: "no event ended a phase before its time limit",
-    Status.NONFINITE: "the state became non-finite (NaN or inf)",
-    Status.RUNNING: "running: a stance contact force turned upward (flight)",
+    Status.TIMEOUT: "no event ended a phase before its time limit (the kneed walker: no knee-strike in time)",
+    Status.NONFINITE: "the state, or a number reported at a gait found, came out non-finite (NaN; inf where no infinity is a value)",
+    Status.RUNNING: "running: a stance ground contact's force or impact impulse would have to pull (it lifts off: flight)",
     Status.SHANK_RELEASING: "shank releasing: heel-strike with the swing knee unlocked",
-    Status.SCUFFING: "serious foot-scuffing: swing foot below ground beyond tolerance",
+    Status.SCUFFING: ("scuffing: a foot below the ground beyond tolerance, or a landing into it (a heel-strike not "
+                      "ahead of the stance foot or with the heel rising, a trailing heel that would sink; the "
+                      "compass walker: a swing leg still behind the stance leg at mid-stance, its foot must cross the ground)"),
     Status.TOO_MANY_EVENTS: "the step never ended: too many events in one step",
     Status.NO_CONVERGENCE: "Newton's method did not converge to a fixed point",
-    Status.SOLVER_FAILED: "the ODE solver failed (step-size underflow or max steps)",
-    Status.KNEE_BUCKLED: "a locked stance knee would have to pull to stay straight",
-    Status.NOT_DIFFERENTIABLE: "gait found, but no derivative: a fold (I - J singular) or a defective dominant eigenvalue",
+    Status.SOLVER_FAILED: "the ODE solver failed (its step budget, or an event time it could not locate)",
+    Status.KNEE_BUCKLED: ("a locked knee on its extension stop alone (no latch) would have to pull to stay straight "
+                          "(a force, or an impact's impulse)"),
+    Status.NOT_DIFFERENTIABLE: ("gait found, but no derivative: a fold (I - J singular), a defective dominant "
+                                "eigenvalue, or a derivative (or a value an optimisation steps on) came out non-finite"),
     Status.NOT_COMPUTED: "not computed: this point's chunk was not written (an unfinished or damaged store)",
     Status.SLIPPING: "slipping: a ground contact force or impulse left its friction cone",
     Status.NO_PERIODIC_ATTRACTOR: (
         "no periodic attractor: walked from the unstable gait's neighbourhood, the walker kept walking "
         "without repeating at any tested period (quasi-periodic, chaotic, longer period, or too slow to settle)"
     ),
-    Status.CYCLE_NOT_FOUND: "the walk repeated, but Newton on the k-step map found no stable genuine period-k cycle there",
+    Status.CYCLE_NOT_FOUND: ("no genuine period-k cycle: Newton on the k-step map found none where the walk repeated "
+                             "(attractors), or converged onto a shorter cycle (a re-solve along a line)"),
     Status.NOT_RETURNED: (
         "not returned: walked every allowed step from the perturbed start without a failure, "
         "but never came within tol of the gait's cycle (a slower return, another attractor, or none)"
@@ -74,6 +81,9 @@ STATUS_MEANINGS: dict[Status, str] = {
         "not a state: a perturbed start outside the walker's states (the model's into_section moves it, e.g. a "
         "flat foot below the ground); its walk is not read, and it is left out of the basin's counts"
     ),
+    Status.NOT_LOCATED: ("not located: a bracket (a bifurcation, a border collision) was not narrowed to its "
+                         "tolerance, out of iterations or with a trial gait on a third event sequence, or a "
+                         "continuation step was refused for a tangent that turned too far; Newton was not the limit"),
     Status.IN_PROGRESS: "internal: step in progress",
 }
 

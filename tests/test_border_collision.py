@@ -220,11 +220,11 @@ def test_three_sequences_between_two_grid_points_give_two_collisions(monkeypatch
 def test_a_sign_bracket_that_meets_another_sequence_inside_is_not_located(monkeypatch):
     """Both grid ends take sequence A, the fold test changes sign between them
     (a linear one: the secant's first trial is its root, 0.5), and the gaits
-    just below 0.5 take B: the bracket ends no_convergence, not a located fold."""
+    just below 0.5 take B: the bracket ends not_located, not a located fold."""
     evaluate = _edge_fake(lambda x: np.full(len(x), Status.OK), lambda x: np.where((x > 0.45) & (x <= 0.5), B, A),
                           lambda x: 0.5 + x)
     found = _run(monkeypatch, evaluate, [0.0, 1.0])
-    assert found.kind.tolist() == [Kind.FOLD] and found.status.tolist() == [Status.NO_CONVERGENCE]
+    assert found.kind.tolist() == [Kind.FOLD] and found.status.tolist() == [Status.NOT_LOCATED]
 
 
 def test_edges_followed_through_grid_points_report_each_point_once(monkeypatch):
@@ -281,7 +281,7 @@ def test_more_order_changes_in_one_interval_than_the_passes_leave_one_unlocated(
     found = _run(monkeypatch, evaluate, [0.0, 0.999], tol=1e-7)
     located = found.kind[found.status == Status.OK]
     assert located.tolist() == [Kind.BORDER_COLLISION] * MAX_PASSES
-    assert found.kind[-1] == Kind.BORDER_COLLISION and found.status[-1] == Status.NO_CONVERGENCE
+    assert found.kind[-1] == Kind.BORDER_COLLISION and found.status[-1] == Status.NOT_LOCATED
 
 
 def test_sequence_codes_that_cannot_be_compared_are_refused():
@@ -438,4 +438,4 @@ def test_a_bracket_closed_by_the_last_allowed_trial_is_located(monkeypatch):
     assert run(80).status.tolist() == [Status.OK]
     trials = len(calls) - 1  # the last call: the midpoint's solve
     assert run(trials).status.tolist() == [Status.OK]
-    assert run(trials - 1).status.tolist() == [Status.NO_CONVERGENCE]
+    assert run(trials - 1).status.tolist() == [Status.NOT_LOCATED]

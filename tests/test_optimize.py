@@ -166,6 +166,34 @@ def test_a_start_that_loses_its_gait_ends_with_a_status(monkeypatch):
     assert failed[-4:].all() and not path.accepted[path.ended_at[0], 0]  # max_retries + 1 failures in a row
 
 
+def test_a_nan_objective_at_a_gait_found_is_a_failed_point_not_a_step(monkeypatch):
+    """The same landscape, but below 0.0105 the program reports a gait (status OK) with a
+    NaN ``lambda_max`` and gradient: the optimiser must not step on it (a NaN would
+    poison the optax state and every later point). Each such point is a failure,
+    ``not_differentiable``, undone and halved as a lost gait is."""
+    from jaxwalk.models import get_model
+    from jaxwalk.optimize.engine import Problem, optimise
+    from jaxwalk.status import Status
+
+    fake = _FakeSensitivity(
+        ("gamma",), lambda p: (p[:, 0] - 0.01) ** 2, lambda p: 2 * (p - 0.01),
+        lambda p: p[:, 0], lambda p: np.ones_like(p), lambda p: p[:, 0] < 0.0105,
+    )
+    found = fake.__call__
+
+    def nan_at_ok(params, v0):
+        out = found(params, v0)
+        out.status = np.zeros_like(out.status)  # the NaNs stay: a gait "found" with NaN numbers
+        return out
+
+    _fake(monkeypatch, nan_at_ok)
+    problem = Problem(names=("gamma",), lower=(0.004,), upper=(0.02,), iterations=60, learning_rate=0.05, max_retries=3)
+    path = optimise(get_model("simplest"), problem, {}, np.array([[0.018], [0.005]]))
+    assert list(path.final_status) == [Status.NOT_DIFFERENTIABLE, Status.NOT_DIFFERENTIABLE]
+    assert 0.0105 <= path.best_params[0, 0] < 0.0115 and np.isfinite(path.params[path.accepted]).all()
+    assert np.isfinite(path.objective[path.accepted]).all()
+
+
 @pytest.mark.parametrize("optimizer", ["adam", "normalized"])
 def test_held_speed_by_augmented_lagrangian(monkeypatch, optimizer):
     """minimise gamma^2 + b^2 holding speed = gamma + b at 1: the optimum is (0.5, 0.5)."""

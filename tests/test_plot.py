@@ -576,3 +576,15 @@ def test_a_key_of_six_rows_or_fewer_leaves_the_figure_size_as_before():
     rows = -(-len(key.get_texts()) // key._ncols)
     assert rows <= lines.LEGEND_ROWS_FREE
     np.testing.assert_allclose(fig.get_size_inches(), [3.6 * 3 + 2.4, 3.0 + 1.4], rtol=1e-12)  # three panels, one row
+
+
+def test_every_failure_status_has_its_own_colour_and_marker():
+    """A figure tells every failure apart: each dataset status but ``OK`` has a colour
+    and a marker, none shared (the attractors' two were drawn alike, in the fallback)."""
+    from jaxwalk.plot.statuses import STATUS_COLORS, STATUS_MARKERS
+    from jaxwalk.status import DATASET_STATUSES, Status
+
+    failures = [s for s in DATASET_STATUSES if s != Status.OK]
+    assert sorted(STATUS_COLORS) == sorted(failures) == sorted(STATUS_MARKERS)
+    assert len(set(STATUS_COLORS.values())) == len(failures)
+    assert len(set(STATUS_MARKERS.values())) == len(failures)

@@ -324,3 +324,15 @@ def test_sweep_writes_its_figures(tmp_path, fake_analysis, text):
     for name in figures:  # jaxwalk.plot's names, nothing else beside the dataset
         assert name.startswith(f"{config.name}_") and name.endswith(tuple(f"_{k}.png" for k in kinds)), name
         assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_a_gait_sensitivity_norm_nan_at_a_gait_is_nonfinite_but_inf_is_a_value():
+    """The norm of an unstable gait is inf, a result; NaN at a gait found (the step re-run
+    at the gait failed, or its Jacobian is not finite) must not leave with status 0."""
+    from jaxwalk import outputs as schema
+    from jaxwalk.analyses.global_stability import GSN
+
+    status = np.zeros(4, np.int8)
+    gsn = np.array([1.3, np.inf, np.nan, 2.0])
+    out = schema.nonfinite(status, {"gait_sensitivity_norm": gsn}, [GSN])
+    np.testing.assert_array_equal(out, [0, 0, Status.NONFINITE, 0])

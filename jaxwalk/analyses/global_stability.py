@@ -107,7 +107,7 @@ GSN = Output(
     "gait_sensitivity_norm", "float64",
     "gait sensitivity norm: H2 norm of the step-to-step response of the gait indicators to a floor-height disturbance",
     units=_gsn_units, label="gait sensitivity norm", meaning="response of step time and length to floor height (H2 norm)",
-    differentiable=True, plot=30, attrs=_gsn_attrs,
+    differentiable=True, plot=30, attrs=_gsn_attrs, finite_where_ok=True, inf_is_a_value=True,
 )
 MFPT = (
     Output("mfpt", "float64", "mean first-passage time: expected completed steps before a failure, from the gait",

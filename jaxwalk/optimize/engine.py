@@ -341,10 +341,15 @@ def _evaluate(setup: _Setup, run: _Starts) -> _Evaluation:
     f, df = quantity(problem.objective)
     f, df = problem.sign * f, problem.sign * df
     grad_x = df * width  # chain rule into the unit box
+    finite = np.isfinite(f) & np.isfinite(grad_x).all(axis=-1)
     for j, h in enumerate(setup.held):
         q, dq = quantity(h)
         c = (q - setup.target[j]) / abs(setup.target[j])
         grad_x = grad_x + ((run.multipliers[:, j] + problem.penalty * c)[:, None] * dq / abs(setup.target[j])) * width
+        finite &= np.isfinite(q) & np.isfinite(grad_x).all(axis=-1)
+    # A gait whose objective, held values or their gradients are not finite (the gait
+    # sensitivity norm of an unstable gait is inf) gives the optimiser nothing to step on.
+    status = np.where((status == Status.OK) & ~finite, np.int8(Status.NOT_DIFFERENTIABLE), status).astype(np.int8)
     return _Evaluation(status, f, df, grad_x, quantity, np.asarray(sens.metrics.v))
 
 

@@ -35,6 +35,9 @@ STATUS_COLORS: dict[int, str] = {
     Status.UNSTABLE_GAIT: "#9e7b5a",
     Status.FOOT_ROLLING: "#b5651d",
     Status.NOT_A_STATE: "#f5f5dc",  # beige: outside the walker's states, nothing to measure
+    Status.NO_PERIODIC_ATTRACTOR: "#c5b0d5",  # lavender: walking on, repeating at no tested period
+    Status.CYCLE_NOT_FOUND: "#843c39",
+    Status.NOT_LOCATED: "#cedb9c",
 }
 #: Fallback for a code this version does not know.
 UNKNOWN_COLOR = "#5c3c00"
@@ -59,6 +62,9 @@ STATUS_MARKERS: dict[int, str] = {
     Status.UNSTABLE_GAIT: "2",
     Status.FOOT_ROLLING: "X",
     Status.NOT_A_STATE: "3",
+    Status.NO_PERIODIC_ATTRACTOR: "4",
+    Status.CYCLE_NOT_FOUND: "+",
+    Status.NOT_LOCATED: "|",
 }
 
 

@@ -47,9 +47,11 @@ def missing_points(ds: xr.Dataset) -> np.ndarray:
     status = ds["status"].values
     missing = status == Status.NOT_COMPUTED
     ok = status == Status.OK
+    inf_is_a_value = {o.name for o in analyses.declared() if o.inf_is_a_value}  # unstable gait's GSN: inf
     for name in required():
         if name in ds and ds[name].dims == ds["status"].dims:
-            nan = ~np.isfinite(ds[name].values)
+            values = ds[name].values
+            nan = np.isnan(values) if name in inf_is_a_value else ~np.isfinite(values)
             if (ok & ~nan).any():  # computed in this sweep: NaN at an OK point is a lost file
                 missing |= ok & nan
     return missing
