@@ -144,3 +144,31 @@ def test_a_knee_stop_pulled_by_an_impact_is_knee_buckled_in_both_implementations
     for latch, rows, expected in cases:
         assert int(ours(latch, **rows)) == expected, (latch, rows)
         assert reference(latch, **rows) == names[expected], (latch, rows)
+
+
+def test_a_failure_due_on_entering_heel_pivot_outranks_the_flat_landing():
+    """Entering heel pivot with the ankle on the ground is ``SCUFFING`` (the foot
+    landed flat), unless a failure guard is already due: a fall that lands the foot
+    flat is ``FELL``, in both implementations (the SciPy walker's entry check)."""
+    import jax.numpy as jnp
+
+    from tests.reference.flatfoot.guards import G
+    from tests.reference.flatfoot.params import HEEL_PIVOT
+    from tests.reference.flatfoot.resets import entry_status
+
+    def ours(**below):
+        g = jnp.ones(len(MODEL.guards)).at[ev.TOE_STRIKE].set(-1e-3)
+        for name, index in below.items():
+            g = g.at[index].set(-1e-3)
+        return int(ev.entry_failure(g, ph.HEEL_PIVOT))
+
+    def reference(*below):
+        g = np.ones(len(G))
+        g[G["toe_strike"]] = -1e-3
+        for name in below:
+            g[G[name]] = -1e-3
+        return entry_status(g, HEEL_PIVOT)
+
+    assert ours() == Status.SCUFFING and reference() == "scuffing"
+    assert ours(fall=ev.FALL) == Status.FELL and reference("fall") == "fell"
+    assert ours(running=ev.RUNNING) == Status.RUNNING and reference("running") == "running"

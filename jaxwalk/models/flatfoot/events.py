@@ -239,13 +239,16 @@ def settle(model, t, y, params, phase, ctx):
 
 
 def entry_failure(guards, phase):
-    """Status of the first failure guard that is already non-positive on entering ``phase``."""
+    """Status of the first failure guard that is already non-positive on entering ``phase``
+    (:data:`FAILURES` order), else ``SCUFFING`` for a heel pivot entered with the ankle
+    not above the ground, else ``IN_PROGRESS``."""
     status = jnp.int8(Status.IN_PROGRESS)
     for guard, code in reversed(list(FAILURES.items())):  # the first listed wins
         status = jnp.where(guards[guard] <= 0.0, jnp.int8(code), status)
-    # A heel pivot that starts with the ankle on or below the ground: the foot landed flat or toe first.
+    # A heel pivot that starts with the ankle on or below the ground: the foot landed flat or toe
+    # first. After the failure guards (a fall that lands the foot flat is a fall), as the SciPy walker.
     bad_landing = (ph.FLAT_PHASE[phase] == ph.HEEL_PIVOT) & (guards[TOE_STRIKE] <= 0.0)
-    return jnp.where(bad_landing, jnp.int8(Status.SCUFFING), status)
+    return jnp.where(bad_landing & (status == Status.IN_PROGRESS), jnp.int8(Status.SCUFFING), status)
 
 
 def normal_impulses(q, impulses, params, ctx):
