@@ -8,13 +8,17 @@
   under a hidden temporary directory beside the target and renamed into place,
   so a reader never sees half an output and a failure leaves nothing behind.
 * :func:`provenance`: the attributes every dataset carries (when, by which
-  command, with which package versions).
+  command, with which package versions and which jaxwalk source,
+  :func:`source_digest`).
 """
 
 from __future__ import annotations
 
 import datetime as _dt
+import functools
+import hashlib
 import importlib.metadata
+import inspect
 import os
 import platform
 import shutil
@@ -27,6 +31,41 @@ from jaxwalk.errors import ConfigError
 
 #: Packages whose versions every dataset records (``<name>_version`` attributes).
 VERSIONED = ("jax", "jaxlib", "diffrax", "equinox", "optimistix", "numpy", "xarray", "zarr")
+#: jaxwalk's own source directory.
+PACKAGE = Path(__file__).resolve().parent
+
+
+# ---------------------------------------------------------------- source
+
+
+@functools.lru_cache(maxsize=None)
+def file_digest(path: str) -> str:
+    """SHA-256 of a file's bytes (hex), once per process."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+@functools.lru_cache(maxsize=1)
+def source_digest() -> str:
+    """SHA-256 (hex) of jaxwalk's own Python source, every file by its path and
+    bytes: which code made a result, where the version number (bumped by hand)
+    does not change with every edit."""
+    h = hashlib.sha256()
+    for path in sorted(PACKAGE.rglob("*.py")):
+        h.update(f"{path.relative_to(PACKAGE)}:{file_digest(str(path))}\n".encode())
+    return h.hexdigest()
+
+
+def model_sources(model_class) -> list[str]:
+    """Source files of the model's classes outside jaxwalk (a user's or a test's model)."""
+    files = set()
+    for cls in model_class.__mro__:
+        try:
+            path = inspect.getsourcefile(cls)
+        except TypeError:  # builtins
+            continue
+        if path and not Path(path).resolve().is_relative_to(PACKAGE):
+            files.add(str(Path(path).resolve()))
+    return sorted(files)
 
 
 # ---------------------------------------------------------------- checks
@@ -143,8 +182,9 @@ def provenance(command: str | None, program: str, *, created: _dt.datetime | Non
 
     ``created`` (ISO 8601, UTC, seconds; default now), ``command`` (the command
     line, ``""`` from Python), ``history`` (``"<created>: <command or program>"``,
-    ``program`` naming the Python entry point) and ``<package>_version`` for
-    :data:`VERSIONED` and ``extra_versions``.
+    ``program`` naming the Python entry point), ``<package>_version`` for
+    :data:`VERSIONED` and ``extra_versions``, and ``jaxwalk_source_sha256``
+    (:func:`source_digest`).
     """
     created_s = (created or _dt.datetime.now(_dt.timezone.utc)).isoformat(timespec="seconds")
     versions = package_versions()
@@ -158,4 +198,5 @@ def provenance(command: str | None, program: str, *, created: _dt.datetime | Non
         "command": command or "",
         "history": f"{created_s}: {command or program}",
         **{f"{name}_version": v for name, v in versions.items()},
+        "jaxwalk_source_sha256": source_digest(),
     }

@@ -25,7 +25,6 @@ from __future__ import annotations
 import functools
 import hashlib
 import importlib.metadata
-import inspect
 import os
 import sys
 import warnings
@@ -37,7 +36,7 @@ from jax import export
 
 from jaxwalk import cache, compiling
 from jaxwalk.continuation import LineCarry
-from jaxwalk.files import write_atomically
+from jaxwalk.files import file_digest, model_sources, source_digest, write_atomically
 from jaxwalk.gait import Gait, GaitStats
 from jaxwalk.stepdown import StepDownResult
 
@@ -72,7 +71,6 @@ for _type in (Gait, GaitStats, LineCarry, StepDownResult):
     serializable(_type)
 
 _LIBRARIES = ("jax", "jaxlib", "diffrax", "equinox", "optimistix", "lineax", "numpy")
-_PACKAGE = Path(__file__).resolve().parent
 _identities: dict = {}
 #: Grid programs this process traced, and loaded from disk instead (tests count them).
 counts = {"traced": 0, "loaded": 0}
@@ -97,17 +95,11 @@ def cache_directory() -> Path | None:
     return root / cache.PROGRAMS
 
 
-@functools.lru_cache(maxsize=None)
-def _file_hash(path: str) -> str:
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
-
-
 @functools.lru_cache(maxsize=1)
 def _environment_hash() -> str:
     """jaxwalk's own source, the tracing libraries' versions, float64 on or off."""
     h = hashlib.sha256()
-    for path in sorted(_PACKAGE.rglob("*.py")):
-        h.update(f"{path.relative_to(_PACKAGE)}:{_file_hash(str(path))}\n".encode())
+    h.update(f"jaxwalk source {source_digest()}\n".encode())
     for name in _LIBRARIES:
         try:
             version = importlib.metadata.version(name)
@@ -116,19 +108,6 @@ def _environment_hash() -> str:
         h.update(f"{name}=={version}\n".encode())
     h.update(f"x64={jax.config.jax_enable_x64}\n".encode())
     return h.hexdigest()
-
-
-def _model_sources(model_class) -> list[str]:
-    """Source files of the model's classes outside jaxwalk (a user's or a test's model)."""
-    files = set()
-    for cls in model_class.__mro__:
-        try:
-            path = inspect.getsourcefile(cls)
-        except TypeError:  # builtins
-            continue
-        if path and not Path(path).resolve().is_relative_to(_PACKAGE):
-            files.add(str(Path(path).resolve()))
-    return sorted(files)
 
 
 def program_key(program, args) -> str | None:
@@ -142,8 +121,8 @@ def program_key(program, args) -> str | None:
     h = hashlib.sha256()
     for part in (kind, model_id, *settings, str(tree), repr(signature), _environment_hash()):
         h.update(part.encode() + b"\0")
-    for path in _model_sources(model_class):
-        h.update(f"{path}:{_file_hash(path)}\0".encode())
+    for path in model_sources(model_class):
+        h.update(f"{path}:{file_digest(path)}\0".encode())
     return h.hexdigest()
 
 

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from jaxwalk import grid as G
-from jaxwalk import cache, program_cache
+from jaxwalk import cache, files, program_cache
 from jaxwalk.lines import segment_inputs, segment_program
 from jaxwalk.models.compass import CompassWalker
 
@@ -97,7 +97,7 @@ def test_key_follows_what_the_trace_depends_on(monkeypatch):
     assert key != program_cache.program_key(other_settings, rows)
     assert program_cache.program_key(jax.jit(lambda x: x), rows) is None  # not registered: never cached
     # The model's source outside jaxwalk (this file) is part of the key ...
-    assert str(Path(__file__).resolve()) in program_cache._model_sources(CachedCompass)
+    assert str(Path(__file__).resolve()) in files.model_sources(CachedCompass)
     # ... and jaxwalk's own source and the libraries' versions are.
     monkeypatch.setattr(program_cache, "_environment_hash", lambda: "another jaxwalk")
     assert key != program_cache.program_key(program, rows)

@@ -151,6 +151,19 @@ def test_a_different_sweep_over_an_unfinished_one_is_refused(tmp_path, fake_anal
         assert "pass --overwrite to discard it" in err
         assert listing(tmp_path) == before  # nothing written, nothing removed
 
+    # The same config after jaxwalk's code changed (a killed run, an edit, the same command):
+    # the chunks done by the old code are not continued with the new one's.
+    import jaxwalk.files
+
+    (tmp_path / "sweep.toml").write_text(COMPASS_2D)
+    digest = jaxwalk.files.source_digest
+    monkeypatch.setattr(jaxwalk.files, "source_digest", lambda: "the code after an edit")
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "holds an unfinished run of a different sweep (jaxwalk source differ)" in err
+    assert listing(tmp_path) == before
+    monkeypatch.setattr(jaxwalk.files, "source_digest", digest)
+
     # --overwrite discards it and starts over; the same command continues it.
     monkeypatch.setattr(jaxwalk.grid, "analyse_grid", fake_analysis())
     (tmp_path / "sweep.toml").write_text(COMPASS_2D.replace("num = 7", "num = 8"))

@@ -131,7 +131,7 @@ class ChunkStore:
                 ``overwrite``), or the dataset would not fit on the disk.
         """
         from jaxwalk.grid import chunk_count, chunk_shape
-        from jaxwalk.files import package_versions
+        from jaxwalk.files import file_digest, model_sources, package_versions, source_digest
 
         shape = config.shape
         along = None if config.continuation is None else config.dims.index(config.continuation)
@@ -143,6 +143,8 @@ class ChunkStore:
             "analysis options": options,
             "chunk shape (--chunk-size)": list(chunks),
             "package versions": {k: versions.get(k, "") for k in NUMERIC_PACKAGES},
+            # The code itself: an edit between a killed run and its rerun must not mix two codes' results.
+            "jaxwalk source": [source_digest()] + [f"{p}:{file_digest(p)}" for p in model_sources(type(model))],
         }
         fingerprint = {k: hashlib.sha256(json.dumps(v, sort_keys=True, default=str).encode()).hexdigest() for k, v in parts.items()}
         self = cls(
