@@ -301,6 +301,7 @@ def add_optimum(sub) -> None:
     p.add_argument("--along", default="r", metavar="AXIS", help="the grid axis the lines run along (default r)")
     p.add_argument("--max", action="store_true", help="the largest value is best (h_max); default: the least")
     p.add_argument("--csv", default=None, metavar="FILE", help="also write the table as CSV")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing --csv file")
     p.set_defaults(run=cmd_optimum)
 
 
@@ -310,9 +311,12 @@ def cmd_optimum(args: argparse.Namespace) -> int:
     a parabola through the grid points), pressed against the edge of the
     walking band (with the status beyond it), at the grid's edge, or a plateau."""
     from jaxwalk.api import open_dataset
+    from jaxwalk.files import check_file, write_atomically
     from jaxwalk.status import describe
     from jaxwalk.sweep.optimum import KINDS, line_optima
 
+    if args.csv:
+        check_file(args.csv, "--csv", overwrite=args.overwrite)
     optima = line_optima(open_dataset(args.dataset), args.var, args.along, "max" if args.max else "min")
     table = optima.to_dataframe().reset_index()
     table["optimum_kind"] = [KINDS[k] for k in table["optimum_kind"]]
@@ -320,7 +324,7 @@ def cmd_optimum(args: argparse.Namespace) -> int:
     table = table.rename(columns={"star": f"{args.along}*", "value": args.var})
     print(_markdown(table))
     if args.csv:
-        table.to_csv(args.csv, index=False)
+        write_atomically(args.csv, lambda path: table.to_csv(path, index=False))
         print(f"wrote {args.csv}")
     return EXIT_OK
 

@@ -97,6 +97,21 @@ def check_output(out_dir: str | os.PathLike, name: str, *, overwrite: bool = Fal
     return target
 
 
+def check_file(path: str | os.PathLike, option: str, *, overwrite: bool = False) -> Path:
+    """``path`` if a file can be written there (``option`` names it in the message):
+    its directory exists and is writable, and nothing is there (unless ``overwrite``;
+    a directory never). Creates nothing."""
+    path = Path(path)
+    parent = path.parent
+    if path.is_dir():
+        raise ConfigError(f"{option} '{path}' is a directory")
+    if not parent.is_dir():
+        raise ConfigError(f"{option} '{path}': '{parent}' is not a directory")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise ConfigError(f"{option} '{path}': '{parent}' is not writable")
+    return check_free(path, overwrite=overwrite)
+
+
 def check_free(path: Path, *, overwrite: bool = False) -> Path:
     """``path`` if nothing is there (a dangling link counts as something) or ``overwrite``."""
     if (path.exists() or path.is_symlink()) and not overwrite:

@@ -80,6 +80,11 @@ def test_bad_names_raise_the_one_error_type():
         line_optima(ds, along="gamma")
     with pytest.raises(ConfigError, match="sense"):
         line_optima(ds, sense="best")
+    ds["fixed_point"] = (("l_f", "r", "section"), np.zeros((1, R.size, 3)))
+    with pytest.raises(ConfigError, match="'fixed_point' is not one number per grid point .*section"):
+        line_optima(ds, "fixed_point")
+    with pytest.raises(ConfigError, match="'status' is not a measure to optimise"):
+        line_optima(ds, "status")
 
 
 def test_the_command_prints_a_stores_optima_and_refuses_a_bad_variable(tmp_path, monkeypatch, capsys, fake_analysis):
@@ -100,3 +105,11 @@ def test_the_command_prints_a_stores_optima_and_refuses_a_bad_variable(tmp_path,
     assert table.read_text().count("\n") == 8
     assert main(["optimum", store, "--var", "lambda_mx"]) == 2
     assert capsys.readouterr().err.startswith("jaxwalk: error: line_optima: no variable 'lambda_mx'")
+    # The CSV is checked before anything is computed or printed, and never replaced unasked.
+    for csv, fragment in ((table, "already exists (pass --overwrite"), (tmp_path, "is a directory"),
+                          (tmp_path / "nodir" / "x.csv", "is not a directory")):
+        assert main(["optimum", store, "--along", "gamma", "--csv", str(csv)]) == 2
+        captured = capsys.readouterr()
+        assert captured.out == "" and captured.err.count("\n") == 1 and fragment in captured.err, captured.err
+    assert main(["optimum", store, "--along", "gamma", "--csv", str(table), "--overwrite"]) == 0
+    assert table.read_text().count("\n") == 8 and not list(tmp_path.glob(".optima.csv.*"))

@@ -75,12 +75,20 @@ def line_optima(
         holds the optimum).
 
     Raises:
-        ConfigError: an unknown variable or axis, or a bad ``sense``.
+        ConfigError: an unknown variable or axis, a variable that is not one float per grid
+            point (a status, a count, a fixed point), or a bad ``sense``.
     """
     if variable not in ds.data_vars:
         raise ConfigError(f"line_optima: no variable {variable!r} in the dataset (has: {', '.join(ds.data_vars)})")
     if along not in ds[variable].dims or along not in ds.coords:
         raise ConfigError(f"line_optima: {variable!r} has no grid axis {along!r} (axes: {', '.join(ds[variable].dims)})")
+    grid = ds["status"].dims
+    if set(ds[variable].dims) != set(grid):
+        extra = [d for d in ds[variable].dims if d not in grid]
+        raise ConfigError(f"line_optima: {variable!r} is not one number per grid point (it has the axes "
+                          f"{', '.join(extra) or 'of another grid'} beyond the grid's {', '.join(grid)})")
+    if "flag_values" in ds[variable].attrs or not np.issubdtype(ds[variable].dtype, np.floating):
+        raise ConfigError(f"line_optima: {variable!r} is not a measure to optimise (a status or a count)")
     if sense not in ("min", "max"):
         raise ConfigError(f"line_optima: sense must be 'min' or 'max', not {sense!r}")
     values = ds[variable].transpose(..., along)
