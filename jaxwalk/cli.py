@@ -272,19 +272,38 @@ def cmd_plot(args: argparse.Namespace) -> int:
     from jaxwalk.plot import plot_dataset
 
     if _is_continuation(args.dataset):
-        from jaxwalk.branches.diagram import plot_branches
-
-        for y in args.vars or ("lambda_max", "v0"):
-            try:
-                print(f"wrote {plot_branches(args.dataset, args.out, y, args.format)}")
-            except ValueError as err:
-                raise UsageError(str(err)) from None
-        return EXIT_OK
+        return _plot_continuation(args)
     paths = plot_dataset(
         args.dataset, args.out, fmt=args.format, partial=args.partial, variables=args.vars, kinds=args.kind, x=args.x, y=args.y, at=args.at or None
     )
     for path in paths:
         print(f"wrote {path}")
+    return EXIT_OK
+
+
+def _plot_continuation(args: argparse.Namespace) -> int:
+    """``jaxwalk plot`` of a ``jaxwalk continue`` dataset: every choice checked before the first figure."""
+    from pathlib import Path
+
+    import xarray as xr
+
+    from jaxwalk.branches.diagram import plot_branches, quantity
+
+    given = [f"--{k}" for k in ("kind", "x", "y", "at", "partial") if getattr(args, k)]
+    if given:
+        raise UsageError(f"{', '.join(given)}: not for a continuation dataset (its figures: --vars lambda_max v0 ...)")
+    out = Path(args.out) if args.out else Path(args.dataset).parent
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"--out '{out}' exists and is not a directory")
+    ys = args.vars or ("lambda_max", "v0")
+    with xr.open_zarr(args.dataset) as ds:
+        for y in ys:
+            try:
+                quantity(ds, y)
+            except ValueError as err:
+                raise UsageError(str(err)) from None
+    for y in ys:
+        print(f"wrote {plot_branches(args.dataset, out, y, args.format)}")
     return EXIT_OK
 
 

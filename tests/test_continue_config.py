@@ -39,6 +39,16 @@ def test_example_config_parses():
     (_with(switch_branches="yes"), "switch_branches must be true or false"),
     (_with(max=None), "missing 'max'"),
     ({**GOOD, "contination": {}}, "unknown top-level key 'contination' (did you mean 'continuation'?)"),
+    (_with(tol=-1.0), "[continuation] tol must be a finite number > 0, got -1.0"),
+    (_with(tol=float("nan")), "[continuation] tol must be a finite number > 0, got nan"),
+    (_with(switch_eps=0.0), "[continuation] switch_eps must be a finite number > 0"),
+    (_with(switch_max_steps=-5), "[continuation] switch_max_steps must be an integer from 1 to 10000, got -5"),
+    (_with(max_steps=100000000), "[continuation] max_steps must be an integer from 1 to 10000, got 100000000"),
+    (_with(ds_max=float("inf")), "[continuation] ds_max must be a finite number, got inf"),
+    (_with(min=float("-inf")), "[continuation] min must be a finite number, got -inf"),
+    (_with(min=-10.0), "[continuation] min: parameter 'gamma'"),
+    ({**GOOD, "params": {"gamma": 0.01}}, "parameter 'gamma' is both fixed in [params] and continued in [continuation]"),
+    ({**GOOD, "continuation": 3}, "'continuation' must be a table ([continuation]), got 3"),
 ])
 def test_bad_config_is_one_line(data, message):
     with pytest.raises(ConfigError) as err:
@@ -93,3 +103,14 @@ def test_dataset_is_self_describing_and_plots(tmp_path, capsys):
     assert (tmp_path / "continue_simplest_bifurcation_v0.png").exists()
     assert cli.main(["plot", str(path), "--vars", "speed"]) == 2
     assert "unknown quantity 'speed'" in capsys.readouterr().err
+    # Every choice checked before the first figure: nothing half-drawn, one line, exit 2.
+    other = tmp_path / "other"
+    other.mkdir()
+    (tmp_path / "afile").write_text("")
+    for args, fragment in ((["--out", str(other), "--vars", "lambda_max", "speed"], "unknown quantity 'speed'"),
+                           (["--out", str(tmp_path / "afile")], "exists and is not a directory"),
+                           (["--out", str(other), "--kind", "heatmap", "--x", "gamma"], "--kind, --x: not for a continuation dataset")):
+        assert cli.main(["plot", str(path), *args]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and fragment in err, err
+    assert list(other.iterdir()) == []

@@ -26,6 +26,13 @@ class Document(TopLevel):
     continuation: Any = None
 
 
+#: Most points a branch may have (its arrays are allocated at that size before it runs).
+MAX_POINTS = 10_000
+_FINITE = dict(allow_inf_nan=False, message="{where} {key} must be {what}, got {value!r}")
+_POSITIVE = dict(gt=0, **_FINITE)
+_POINTS = dict(ge=1, le=MAX_POINTS, message="{where} {key} must be {what}, got {value!r}")
+
+
 class Continuation(Table):
     """``[continuation]``: the parameter, its range and starts, the arclength steps, branch switching."""
 
@@ -35,18 +42,18 @@ class Continuation(Table):
     parameter: str = field(what="a string")
     start: float | Annotated[list[float], Field(min_length=1)] = field(
         what="a number", message="{where} start must be a number or a non-empty array of numbers, got {kind}")
-    min: float = field(what="a number")
-    max: float = field(what="a number")
+    min: float = field(what="a finite number", **_FINITE)
+    max: float = field(what="a finite number", **_FINITE)
     direction: int = field(1, "an integer")
     period: int = field(1, "an integer")
-    ds: float = field(ArclengthOptions.ds, "a number")
-    ds_min: float = field(ArclengthOptions.ds_min, "a number")
-    ds_max: float = field(ArclengthOptions.ds_max, "a number")
-    max_steps: int = field(ArclengthOptions.max_steps, "an integer")
+    ds: float = field(ArclengthOptions.ds, "a finite number", **_FINITE)
+    ds_min: float = field(ArclengthOptions.ds_min, "a finite number", **_FINITE)
+    ds_max: float = field(ArclengthOptions.ds_max, "a finite number", **_FINITE)
+    max_steps: int = field(ArclengthOptions.max_steps, f"an integer from 1 to {MAX_POINTS}", **_POINTS)
     switch_branches: bool = field(False, "true or false")
-    switch_eps: float = field(1e-2, "a number")
-    switch_max_steps: int = field(ArclengthOptions.max_steps, "an integer")
-    tol: float = field(1e-6, "a number")
+    switch_eps: float = field(1e-2, "a finite number > 0 (the first step off a flip, section units)", **_POSITIVE)
+    switch_max_steps: int = field(ArclengthOptions.max_steps, f"an integer from 1 to {MAX_POINTS}", **_POINTS)
+    tol: float = field(1e-6, "a finite number > 0", **_POSITIVE)
 
 
 TOP_LEVEL_KEYS = Document.keys()
@@ -120,15 +127,24 @@ def parse_continue_config(data: Mapping[str, Any], *, source: str = "<config>", 
     model_name, model = model_of(data, fail, example="simplest")
     specs = model.param_specs
     params = check_params(data.get("params", {}), specs, model_name, fail)
+    if "continuation" in data and not isinstance(data["continuation"], Mapping):
+        raise fail(f"'continuation' must be a table ([continuation]), got {data['continuation']!r}")
     if not isinstance(data.get("continuation"), Mapping):
         raise fail("[continuation] is missing (e.g. parameter = \"gamma\", start = 0.010, min = 0.009, max = 0.026)")
     table = Continuation.check(data["continuation"], fail)
     if table.parameter not in specs:
         raise fail(f"[continuation] parameter: {unknown_param(table.parameter, specs, model_name)}")
+    if table.parameter in params:
+        raise fail(f"parameter '{table.parameter}' is both fixed in [params] and continued in [continuation]; remove one")
     starts = table.start if isinstance(table.start, list) else [table.start]
     lo, hi = table.min, table.max
     if not lo < hi:
         raise fail(f"[continuation] needs min < max, got min = {lo}, max = {hi}")
+    for key, bound in (("min", lo), ("max", hi)):
+        try:
+            specs[table.parameter].check(bound)
+        except ValueError as err:
+            raise fail(f"[continuation] {key}: {err}") from None
     for s in starts:
         if not lo <= s <= hi:
             raise fail(f"[continuation] start {s} is outside [min, max] = [{lo}, {hi}]")
