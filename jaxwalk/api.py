@@ -29,6 +29,9 @@ Config = "str | os.PathLike | Mapping[str, Any]"
 def _read(config, *, load: Callable, loads: Callable, parse: Callable, checked: type, kind: str, **extra):
     """A checked config from a path, TOML text (a string with a newline) or a dict."""
     if isinstance(config, Mapping):
+        bad = [k for k in config if not isinstance(k, str)]
+        if bad:
+            raise ConfigError(f"config: keys must be strings (as in TOML), got {bad[0]!r}")
         return parse(dict(config), source=f"<{kind} dict>", **extra)
     if isinstance(config, str) and "\n" in config:
         return loads(config, source=f"<{kind} text>", **extra)
@@ -37,6 +40,15 @@ def _read(config, *, load: Callable, loads: Callable, parse: Callable, checked: 
     if isinstance(config, checked):  # already a checked config
         return config
     raise ConfigError(f"config: expected a path, TOML text or a dict, got {type(config).__name__}")
+
+
+def _count(name: str, value, *, optional: bool = False):
+    """``value`` if it is a positive integer (or ``None`` where ``optional``), else a ConfigError."""
+    if value is None and optional:
+        return value
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise ConfigError(f"{name} must be a positive integer{' or None' if optional else ''}, got {value!r}")
+    return value
 
 
 def _loaded(path: Path) -> xr.Dataset:
@@ -76,6 +88,8 @@ def sweep(
     from jaxwalk.sweep.integrity import check_complete
     from jaxwalk.sweep.runner import run_sweep
 
+    _count("chunk_size", chunk_size, optional=True)
+    _count("max_points", max_points)
     cfg = _read(
         config, load=load_config, loads=loads_config, parse=parse_config, checked=SweepConfig, kind="sweep",
         max_points=max_points,

@@ -80,6 +80,17 @@ def test_bad_input_raises_config_error_with_the_cli_message(tmp_path, capsys, te
 def test_a_config_of_another_type_is_refused():
     with pytest.raises(jaxwalk.ConfigError, match="expected a path, TOML text or a dict"):
         jaxwalk.sweep(42)
+    with pytest.raises(jaxwalk.ConfigError, match="keys must be strings .*got 1"):
+        jaxwalk.sweep({1: 2, "name": "x", "model": "simplest"})
+
+
+@pytest.mark.parametrize("option, value", [("chunk_size", "x"), ("chunk_size", -5), ("chunk_size", 2.5),
+                                           ("max_points", "x"), ("max_points", 0), ("max_points", True)])
+def test_bad_options_raise_the_one_error_type(option, value):
+    """The API's options are checked as the command line's are: a ConfigError, not a TypeError
+    from deep inside, nor a value silently clamped."""
+    with pytest.raises(jaxwalk.ConfigError, match=f"{option} must be a positive integer"):
+        jaxwalk.sweep({"name": "x", "model": "simplest", "grid": {"gamma": {"values": [0.01]}}}, **{option: value})
 
 
 def test_shape_annotations_resolve():
