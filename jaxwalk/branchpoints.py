@@ -115,14 +115,17 @@ def brackets(branches: Branch) -> list[tuple[int, int, int, int]]:
 
 
 def locate_on_branches(problem, params, branches: Branch, tol: float = 1e-6, max_iter: int = 80,
-                       options: ArclengthOptions = ArclengthOptions()) -> BranchPoints:
+                       options: ArclengthOptions = ArclengthOptions(), advance=None) -> BranchPoints:
     """Every fold, flip and Neimark-Sacker point of a batch of branches, located to ``tol`` in arclength.
 
     Args:
         problem: the branches' (:class:`jaxwalk.arclength.CycleProblem`).
         params: the branches' model parameters, each leaf ``(n_branches,)`` (as the branches were run under vmap).
         branches: :class:`Branch` with leading axis ``n_branches``.
+        advance: ``None``, or ``advance(n)`` called once per round of batched corrector
+            solves (at most ``max_iter + 1``: a progress bar's).
     """
+    advance = advance or (lambda n: None)
     found = brackets(branches)
     n_v, k = branches.v.shape[-1], problem.period
     if not found:
@@ -146,6 +149,7 @@ def locate_on_branches(problem, params, branches: Branch, tol: float = 1e-6, max
         trial = np.where((it % 4 == 3) | ~np.isfinite(secant), 0.5 * (lo + hi),
                          np.clip(secant, lo + 0.01 * width, hi - 0.01 * width))
         idx = np.flatnonzero(active)
+        advance(1)
         _, jac, st = solve_at(problem, options, {kk: x[idx] for kk, x in rows.items()}, u_i[idx], t_i[idx], trial[idx])
         mu = np.linalg.eigvals(np.where(np.isfinite(jac[:, :, :n_v]), jac[:, :, :n_v], 0.0) + np.eye(n_v))
         f_t = indicators(mu)[np.arange(len(idx)), column[idx]]
@@ -163,6 +167,7 @@ def locate_on_branches(problem, params, branches: Branch, tol: float = 1e-6, max
                 side[g] = -1
     state[state == Status.IN_PROGRESS] = Status.NOT_LOCATED
     mid = 0.5 * (lo + hi)
+    advance(1)
     u_m, jac_m, st_m = solve_at(problem, options, rows, u_i, t_i, mid)
     t_next = np.asarray(branches.tangent)[b, i + 1]
     out = []

@@ -185,6 +185,7 @@ def add_continue(sub) -> None:
     p.add_argument("config", metavar="CONFIG.toml", help="continuation config (docs/continuation.md)")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory")
     p.add_argument("--overwrite", action="store_true", help="replace an existing dataset")
+    p.add_argument("--no-progress", action="store_true", help="no stage lines or progress bar")
     p.set_defaults(run=cmd_continue)
 
 
@@ -196,7 +197,8 @@ def cmd_continue(args: argparse.Namespace) -> int:
     from jaxwalk.branches.run import run_continue
 
     config = load_continue_config(args.config)
-    path, ds = run_continue(config, args.out, overwrite=args.overwrite, command=args.command_line)
+    path, ds = run_continue(config, args.out, overwrite=args.overwrite, command=args.command_line,
+                            progress=not args.no_progress)
     print(f"wrote {path}: {ds.sizes['branch']} branches, {ds.sizes['label']} labelled points")
     return EXIT_OK
 

@@ -50,8 +50,29 @@ CONFIG = {
 
 
 @pytest.fixture(scope="module")
-def continued():
-    return run_branches(parse_continue_config(CONFIG))
+def continued_and_said():
+    """The run, and what it said on stderr (its stage lines and bars)."""
+    import contextlib
+    import io
+
+    said = io.StringIO()
+    with contextlib.redirect_stderr(said):
+        out = run_branches(parse_continue_config(CONFIG), progress=True)
+    return out, said.getvalue()
+
+
+@pytest.fixture(scope="module")
+def continued(continued_and_said):
+    return continued_and_said[0]
+
+
+def test_the_run_says_each_stage(continued_and_said):
+    """``jaxwalk continue`` runs minutes cold: every stage is announced, the branch's
+    point count and time when it ends, the location's rounds on a bar."""
+    said = continued_and_said[1]
+    assert "continuing 1 branch of the simplest model in gamma (the first run of a model compiles" in said
+    assert "switching onto the period-2 branch at 1 flip" in said
+    assert said.count(" points in ") == 2 and "locating folds, flips and Neimark-Sacker points" in said
 
 
 @pytest.fixture(scope="module")

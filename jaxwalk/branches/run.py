@@ -32,10 +32,13 @@ from jaxwalk.status import flag_attributes
 from jaxwalk.files import check_output, provenance, write_zarr
 
 
-def run_branches(config: ContinueConfig):
+def run_branches(config: ContinueConfig, progress: bool = False):
     """``(branches, labels, period, origin)``: NumPy :class:`Branch` leaves with a leading
     ``branch`` axis (start branches first, then switched ones, padded to one length), the
-    :class:`BranchPoints` of all of them, each branch's period and origin."""
+    :class:`BranchPoints` of all of them, each branch's period and origin. ``progress``:
+    a line on stderr as each stage starts (a branch is one program call: no bar inside
+    it) and a bar, with the time left, over the location's rounds of solves."""
+    say = _Stages(progress)
     model = get_model(config.model)
     problem = CycleProblem(model, config.parameter, config.period)
     starts = np.asarray(config.starts)
@@ -47,14 +50,21 @@ def run_branches(config: ContinueConfig):
         v0 = model.initial_guess(p)
         return continue_branch(problem, p, v0, p[config.parameter], start_direction(v0.shape[0], config.direction), 0.0, lo, hi, config.options)
 
+    say(f"continuing {len(starts)} branch{'es' if len(starts) > 1 else ''} of the {model.name} model in "
+        f"{config.parameter} (the first run of a model compiles, a minute or more; cached afterwards)")
     first = jax.tree_util.tree_map(np.asarray, compiling.jit(jax.vmap(one), model)(params))
-    labels = locate_on_branches(problem, params, first, tol=config.tol, options=config.options)
+    say.done(f"{int(first.n_points.sum())} points")
+    with say.rounds("locating folds, flips and Neimark-Sacker points") as advance:
+        labels = locate_on_branches(problem, params, first, tol=config.tol, options=config.options, advance=advance)
     parts, periods, origins = [first], [config.period] * len(starts), [-1] * len(starts)
     flips = np.flatnonzero((labels.kind == Kind.FLIP) & (labels.status == 0)) if config.switch_branches else []
     if len(flips):
         opts = ArclengthOptions(**{**_fields(config.options), "max_steps": config.switch_max_steps})
+        say(f"switching onto the period-{2 * config.period} branch at {len(flips)} flip{'s' if len(flips) > 1 else ''}")
         switched = _switch(problem, config, labels, flips, opts)
-        more = locate_on_branches(switched[0], switched[1], switched[2], tol=config.tol, options=opts)
+        say.done(f"{int(switched[2].n_points.sum())} points")
+        with say.rounds("locating their folds, flips and Neimark-Sacker points") as advance:
+            more = locate_on_branches(switched[0], switched[1], switched[2], tol=config.tol, options=opts, advance=advance)
         more = more._replace(branch=more.branch + len(starts))
         parts.append(switched[2]); periods += [2 * config.period] * len(flips); origins += flips.tolist()
         labels = BranchPoints(*(np.concatenate([a, b]) for a, b in zip(labels, more)))
@@ -69,6 +79,44 @@ def _switch(problem, config: ContinueConfig, labels: BranchPoints, flips: np.nda
     run = jax.vmap(lambda p, v, w, x: switch_at_flip(problem, p, v, w, x, lo, hi, config.switch_eps, 1.0, opts))
     out = compiling.jit(run, problem.model)(params, jnp.asarray(labels.v[flips]), jnp.asarray(labels.eigenvector[flips]), jnp.asarray(labels.parameter[flips]))
     return dataclasses.replace(problem, k=2 * problem.k), params, jax.tree_util.tree_map(np.asarray, out)
+
+
+class _Stages:
+    """Stage lines and a rounds bar on stderr, or nothing."""
+
+    def __init__(self, on: bool):
+        self.on, self.started = on, None
+
+    def __call__(self, line: str) -> None:
+        import sys
+        import time
+
+        self.started = time.perf_counter()
+        if self.on:
+            print(line, file=sys.stderr, flush=True)
+
+    def done(self, what: str) -> None:
+        import sys
+        import time
+
+        if self.on:
+            print(f"  {what} in {time.perf_counter() - self.started:.0f} s", file=sys.stderr, flush=True)
+
+    def rounds(self, desc: str):
+        """A bar over the location's rounds (at most ``max_iter + 1``; it usually ends sooner)."""
+        import contextlib
+        import sys
+
+        if not self.on:
+            return contextlib.nullcontext(lambda n: None)
+        from tqdm.auto import tqdm
+
+        @contextlib.contextmanager
+        def bar():
+            with tqdm(desc=desc, unit="round", file=sys.stderr, leave=False) as b:
+                yield b.update
+
+        return bar()
 
 
 def _fields(options: ArclengthOptions) -> dict:
@@ -140,8 +188,10 @@ def build_dataset(config: ContinueConfig, branches: Branch, labels: BranchPoints
     return xr.Dataset({k: (d, np.asarray(x), a) for k, (d, x, a) in data.items()}, attrs=attrs)
 
 
-def run_continue(config: ContinueConfig, out: str | Path, *, overwrite: bool = False, command: str | None = None):
-    """Run ``config`` and write ``out/<name>_branches.zarr``; returns ``(path, dataset)``."""
+def run_continue(config: ContinueConfig, out: str | Path, *, overwrite: bool = False, command: str | None = None,
+                 progress: bool = False):
+    """Run ``config`` and write ``out/<name>_branches.zarr``; returns ``(path, dataset)``
+    (``progress``: :func:`run_branches`'s stage lines and bar)."""
     target = check_output(out, f"{config.name}_branches", overwrite=overwrite)  # before computing
-    ds = build_dataset(config, *run_branches(config), command=command)
+    ds = build_dataset(config, *run_branches(config, progress), command=command)
     return write_zarr(ds, target, overwrite=overwrite), ds
