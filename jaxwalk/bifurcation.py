@@ -73,6 +73,7 @@ class Kind(enum.IntEnum):
     BRANCH_POINT = 6
     BORDER_COLLISION = 7
     JUMP = 8
+    SWITCH = 9
 
 
 KIND_MEANINGS = {
@@ -87,8 +88,12 @@ KIND_MEANINGS = {
                             "logged sequences differ on the two sides); the multipliers may jump there"),
     Kind.JUMP: ("jump: a fold, flip or Neimark-Sacker test function changes sign between two gaits 2 tol apart, at "
                 "one of which no multiplier (pair) is near the unit circle's crossing, with no event-order change "
-                "found on the two sides (or none logged): the multipliers jump (the step map is not smooth there); "
+                "found on the two sides (or none logged), and one gait there (re-solved at the located parameter "
+                "from either end: one fixed point): the multipliers jump (the step map is not smooth there); "
                 "no bifurcation is named"),
+    Kind.SWITCH: ("switch: a test function's sign changes because the line passes from one gait to another that "
+                  "coexists with it: re-solved at the located parameter from the two ends of the closed bracket, "
+                  "Newton finds two fixed points (farther apart than same_gait); no bifurcation or jump is named"),
 }
 #: Where a multiplier crosses the unit circle at a fold and at a flip.
 _CROSSING_AT = {Kind.FOLD: 1.0, Kind.FLIP: -1.0}
@@ -105,11 +110,17 @@ class BifurcationOptions:
             a located fold, flip or Neimark-Sacker point needs a multiplier within it of
             +1 or -1 (a pair whose product is within it of 1) at both ends of its
             closed bracket, else it is a :attr:`Kind.JUMP`.
+        same_gait: a closed sign-change bracket is re-solved at its midpoint from each
+            of its two ends; fixed points farther apart than this (max norm, section
+            units: rad, rad per time unit) are two gaits, a :attr:`Kind.SWITCH`. Far
+            above Newton's agreement with itself (``tol`` 1e-8, amplified near a fold
+            by ``1 / sigma_min(J - I)``) and below the distance of two distinct gaits.
     """
 
     tol: float = 1e-6
     max_iter: int = 80
     fold_window: float = 0.05
+    same_gait: float = 1e-4
 
 
 class Bifurcations(NamedTuple):
@@ -526,20 +537,37 @@ def _shrink_signs(solve, brackets: list[dict], options: BifurcationOptions, roun
     rounds.signs_done()
     rounds.advance(signs=True)
     mid = 0.5 * (lo + hi)
-    st, v_m, mu_m, _ = solve(mid, line, i, 0.5 * (v_lo + v_hi))
-    ends = {"v_lo": v_lo, "mu_lo": mu_lo, "mu_hi": mu_hi}
-    return _sign_rows(brackets, state, mid, st, v_m, mu_m, ends, options)
+    n = len(brackets)
+    # The midpoint from the ends interpolated (the row's gait), and from each end alone: the same gait or two.
+    st, v_m, mu_m, _ = solve(np.tile(mid, 3), np.tile(line, 3), np.tile(i, 3), np.concatenate([0.5 * (v_lo + v_hi), v_lo, v_hi]))
+    from_lo, from_hi = slice(n, 2 * n), slice(2 * n, 3 * n)
+    ends = {"v_lo": v_lo, "mu_lo": mu_lo, "mu_hi": mu_hi, "st_lo": st[from_lo], "v_from_lo": v_m[from_lo],
+            "mu_from_lo": mu_m[from_lo], "st_hi": st[from_hi], "v_from_hi": v_m[from_hi], "mu_from_hi": mu_m[from_hi]}
+    return _sign_rows(brackets, state, mid, st[:n], v_m[:n], mu_m[:n], ends, options)
+
+
+def _two_gaits(r: int, ends: dict, options: BifurcationOptions) -> bool:
+    """Whether bracket ``r``'s midpoint, re-solved from each end alone, gave two fixed points."""
+    both = ends["st_lo"][r] == Status.OK and ends["st_hi"][r] == Status.OK
+    return bool(both and np.max(np.abs(ends["v_from_lo"][r] - ends["v_from_hi"][r])) > options.same_gait)
 
 
 def _sign_rows(brackets, state, mid, st, v_m, mu_m, ends: dict, options: BifurcationOptions) -> list[dict]:
     """The table rows of the shrunk sign-change brackets: each located at its
-    midpoint ``mid`` (re-solved there: ``st``, ``v_m``, ``mu_m``), a
-    :attr:`Kind.JUMP` where the bracket closed but the multipliers at either of
-    its ends (``ends``: ``mu_lo``, ``mu_hi``, and ``v_lo``) are not near the
-    crossing (:func:`_crosses`); a jump row carries its lower end's gait and
-    its upper end's multipliers (``multipliers_beyond``), and ``jumps``: the
-    test functions whose sign differs between its ends (one jump may change
-    two or three: one row)."""
+    midpoint ``mid`` (re-solved there: ``st``, ``v_m``, ``mu_m``), except where
+    the bracket closed and either
+
+    * its two ends are two gaits (re-solved at ``mid`` from each end alone:
+      ``ends["v_from_lo"]``, ``ends["v_from_hi"]`` farther apart than
+      ``same_gait``): a :attr:`Kind.SWITCH` row, the lower end's gait and
+      multipliers there, the upper's as ``multipliers_beyond``; or
+    * the multipliers at either of its ends (``ends["mu_lo"]``, ``["mu_hi"]``)
+      are not near the crossing (:func:`_crosses`): a :attr:`Kind.JUMP` row,
+      its lower end's gait (``ends["v_lo"]``) and multipliers, its upper end's
+      as ``multipliers_beyond``.
+
+    Both carry ``jumps``: the test functions whose sign differs between the two
+    (one jump or switch may change two or three: one row)."""
     out = []
     for r, b in enumerate(brackets):
         kind = b["kind"]
@@ -549,16 +577,21 @@ def _sign_rows(brackets, state, mid, st, v_m, mu_m, ends: dict, options: Bifurca
         # row's ends need not be near anything. Both ends, not the midpoint alone: a jump from just
         # inside the window to far outside it has one side near the crossing.
         mu_lo, mu_hi = ends["mu_lo"][r], ends["mu_hi"][r]
-        if state[r] == Status.OK and not (_crosses(kind, mu_lo, options) and _crosses(kind, mu_hi, options)):
-            bits = jumps(indicators(mu_lo)[None], indicators(mu_hi)[None])[0]
-            twin = next((o for o in out if o["kind"] == Kind.JUMP and o["line"] == b["line"]
+        row = None
+        if state[r] == Status.OK and _two_gaits(r, ends, options):
+            row = {"kind": Kind.SWITCH, "v": ends["v_from_lo"][r], "multipliers": ends["mu_from_lo"][r],
+                   "multipliers_beyond": ends["mu_from_hi"][r]}
+        elif state[r] == Status.OK and not (_crosses(kind, mu_lo, options) and _crosses(kind, mu_hi, options)):
+            row = {"kind": Kind.JUMP, "v": ends["v_lo"][r], "multipliers": mu_lo, "multipliers_beyond": mu_hi}
+        if row is not None:
+            bits = jumps(indicators(row["multipliers"])[None], indicators(row["multipliers_beyond"])[None])[0]
+            twin = next((o for o in out if o["kind"] == row["kind"] and o["line"] == b["line"]
                          and abs(o["parameter"] - mid[r]) <= 2 * options.tol), None)
             if twin is not None:  # the fold and the flip test both change sign by the one jump
                 twin["jumps"] |= bits
                 continue
-            out.append({"kind": Kind.JUMP, "parameter": mid[r], "line": b["line"], "status": state[r],
-                        "v": ends["v_lo"][r], "multipliers": mu_lo, "beyond": Status.OK,
-                        "sequences": b["sequences"], "multipliers_beyond": mu_hi, "jumps": bits})
+            out.append({**row, "parameter": mid[r], "line": b["line"], "status": state[r], "beyond": Status.OK,
+                        "sequences": b["sequences"], "jumps": bits})
             continue
         if found and kind == Kind.NEIMARK_SACKER and not _complex_pair_on_circle(mu_m[r]):
             continue  # a neutral saddle (real mu_i mu_j = 1), not a bifurcation of the cycle

@@ -439,3 +439,44 @@ def test_a_bracket_closed_by_the_last_allowed_trial_is_located(monkeypatch):
     trials = len(calls) - 1  # the last call: the midpoint's solve
     assert run(trials).status.tolist() == [Status.OK]
     assert run(trials - 1).status.tolist() == [Status.NOT_LOCATED]
+
+
+def _coexisting(lower_mu, upper_mu):
+    """Two gaits of one event sequence: ``P`` (``v = (x, 0)``, multiplier ``lower_mu``) for
+    ``x < 0.6``, ``Q`` (``v = (x, 1)``, multiplier ``upper_mu``) for ``x > 0.4``; Newton finds the one
+    nearer its start (``v0[1]`` below 1/2: ``P`` where it exists), else the one that exists."""
+
+    def evaluate(model, k, solver, newton, params, v0):
+        x = np.asarray(params["gamma"], np.float64)
+        toward_q = np.full(len(x), True) if v0 is None else np.asarray(v0)[:, 1] >= 0.5
+        q = np.where(x <= 0.4, False, np.where(x >= 0.6, True, toward_q))
+        if v0 is None:  # the grid itself: P below 0.5, Q above
+            q = x > 0.5
+        v = np.stack([x, np.where(q, 1.0, 0.0)], 1)
+        mu = np.stack([np.where(q, upper_mu, lower_mu), np.full_like(x, 0.1)], 1).astype(np.complex128)
+        return np.zeros(len(x), np.int8), v, mu, np.full((len(x), 1), A, np.int64)
+
+    return evaluate
+
+
+@pytest.mark.parametrize("lower_mu, upper_mu", [(0.5, 1.5), (0.97, 1.03)], ids=["far_from_one", "near_one"])
+def test_a_sign_change_between_two_coexisting_gaits_is_a_switch(monkeypatch, lower_mu, upper_mu):
+    """The line's grid gaits are ``P`` at 0.0 and ``Q`` at 1.0; both exist over 0.4-0.6 and
+    the fold test differs between them. The regula falsi closes somewhere there on Newton's
+    choice of gait, not on a crossing: re-solved at the located point from each end, the
+    bracket gives two gaits, a ``switch`` row; the code before named it a jump (0.5, 1.5:
+    nothing near +1) or a fold (0.97, 1.03: both within the window)."""
+    found = _run(monkeypatch, _coexisting(lower_mu, upper_mu), [0.0, 1.0], sequences=False)
+    assert found.kind.tolist() == [Kind.SWITCH] and found.status.tolist() == [Status.OK]
+    assert 0.4 <= found.parameter[0] <= 0.6 and found.jumps.tolist() == [1]
+    assert found.v[0, 1] == 0.0 and found.multipliers[0, 0].real == lower_mu  # the lower end's gait, P
+    assert found.multipliers_beyond[0, 0].real == upper_mu
+
+
+def test_one_gait_on_both_ends_stays_a_jump(monkeypatch):
+    """The same jump of the multipliers with one fixed point (the re-solves from both ends
+    agree): a ``jump``, as before."""
+    monkeypatch.setattr(bifurcation, "_evaluate", _fake(jump=0.8))
+    x, status, v, mu, _ = _grid([0.0, 1.0], 0.8)
+    found = locate(get_model("simplest"), {"gamma": x}, "gamma", status, v, mu, options=BifurcationOptions(tol=1e-7))
+    assert found.kind.tolist() == [Kind.JUMP]

@@ -7,10 +7,11 @@ points, to 1e-6 in the continuation parameter. They are written as a table
 along a ``bifurcation`` dimension (one row per point):
 
 * ``bifurcation_kind`` int8 (CF flags: ``fold flip neimark_sacker grazing lost
-  branch_point border_collision jump``; a border collision is located where the
+  branch_point border_collision jump switch``; a border collision is located where the
   gaits' ``event_sequence`` changes, for models that log their events; a jump
   where a fold, flip or Neimark-Sacker test changes sign with nothing near the
-  unit circle at one end of its closed bracket);
+  unit circle at one end of its closed bracket, one gait on both; a switch
+  where the bracket's two ends are two coexisting gaits);
 * ``bifurcation_parameter``: the continuation parameter's value;
 * ``bifurcation_<axis>`` for every other grid axis: the line's value of it;
 * ``bifurcation_line`` int32: the line's index in C order of the other axes;
@@ -19,8 +20,8 @@ along a ``bifurcation`` dimension (one row per point):
 * ``bifurcation_point`` ``(bifurcation, section)`` and
   ``bifurcation_multipliers_real`` / ``_imag`` ``(bifurcation, eigen)`` there;
 * ``bifurcation_sequence`` int64: the gait's event sequence code there; for a
-  border collision, ``bifurcation_sequence_beyond``; for a border collision
-  or a jump, ``bifurcation_multipliers_beyond_real`` / ``_imag`` on its
+  border collision, ``bifurcation_sequence_beyond``; for a border collision,
+  a jump or a switch, ``bifurcation_multipliers_beyond_real`` / ``_imag`` on its
   higher parameter's side and ``bifurcation_jumps`` (which test functions
   change sign by the jump).
 
@@ -101,7 +102,7 @@ def table_dataset(found, ds, axis: str, others: list[str], line_shape: tuple[int
             "long_name": "status beyond an edge where the gait is lost (0 for sign changes)", **flag_attributes(),
         }),
         "bifurcation_point": ((dim, "section"), found.v, {
-            "long_name": "the gait's fixed point at the bifurcation (a border collision's or a jump's: on its lower parameter's side)"}),
+            "long_name": "the gait's fixed point at the bifurcation (a border collision's, a jump's or a switch's: on its lower parameter's side)"}),
         "bifurcation_multipliers_real": ((dim, "eigen"), found.multipliers.real, {"long_name": "real part of the multipliers there"}),
         "bifurcation_multipliers_imag": ((dim, "eigen"), found.multipliers.imag, {"long_name": "imaginary part of the multipliers there"}),
         "bifurcation_sequence": (dim, found.sequence, {
@@ -109,11 +110,11 @@ def table_dataset(found, ds, axis: str, others: list[str], line_shape: tuple[int
         "bifurcation_sequence_beyond": (dim, found.sequence_beyond, {
             "long_name": "a border collision's event sequence code on its higher parameter's side (0 for other kinds)", **names}),
         "bifurcation_multipliers_beyond_real": ((dim, "eigen"), found.multipliers_beyond.real, {
-            "long_name": "real part of a border collision's or a jump's multipliers on its higher parameter's side (NaN for other kinds)"}),
+            "long_name": "real part of a border collision's, a jump's or a switch's multipliers on its higher parameter's side (NaN for other kinds)"}),
         "bifurcation_multipliers_beyond_imag": ((dim, "eigen"), found.multipliers_beyond.imag, {
-            "long_name": "imaginary part of a border collision's or a jump's multipliers on its higher parameter's side (NaN for other kinds)"}),
+            "long_name": "imaginary part of a border collision's, a jump's or a switch's multipliers on its higher parameter's side (NaN for other kinds)"}),
         "bifurcation_jumps": (dim, found.jumps, {
-            "long_name": "test functions whose sign changes across a border collision or a jump, by the multipliers' "
+            "long_name": "test functions whose sign changes across a border collision, a jump or a switch, by the multipliers' "
                          "jump (bit mask: fold 1, flip 2, neimark_sacker 4; 0 for other kinds)"}),
     }
     for d, index in zip(others, where):

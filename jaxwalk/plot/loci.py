@@ -46,6 +46,7 @@ STYLES: dict[str, tuple[object, str, str]] = {
     "branch_point": ("", "P", "branch point (multiplier +1)"),
     "border_collision": ((0, (4, 1, 1, 1, 1, 1)), "v", "border collision (event order changes)"),  # dash-dot-dot
     "jump": ("", "*", "multipliers jump (no bifurcation)"),
+    "switch": ("", "H", "switch between coexisting gaits (no bifurcation)"),
 }
 #: Style of a kind this version does not know.
 OTHER_STYLE = (":", "o", "")
