@@ -107,6 +107,12 @@ def directory() -> Path | None:
     return _state["root"]
 
 
+def unusable(root: str | os.PathLike) -> str | None:
+    """Why ``root`` cannot hold the caches, or ``None`` if it can (tried by writing a file;
+    the directory is created if it is missing)."""
+    return _unwritable(Path(root).expanduser())
+
+
 def _unwritable(root: Path) -> str | None:
     """Why ``root`` cannot hold the caches, or ``None`` if it can (tried by writing a file)."""
     try:

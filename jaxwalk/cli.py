@@ -439,6 +439,9 @@ def _configure_cache(args: argparse.Namespace) -> None:
     if getattr(args, "no_cache", False):
         cache.configure(enabled=False)
     elif getattr(args, "cache_dir", None) is not None:
+        problem = cache.unusable(args.cache_dir) if getattr(args, "run", None) is cmd_cache else None
+        if problem:  # for the cache command the directory is the input, not a preference
+            raise UsageError(f"--cache-dir '{args.cache_dir}' cannot be used: {problem}")
         cache.configure(args.cache_dir)
     else:
         cache.report()  # the default directory, configured by ``import jaxwalk``

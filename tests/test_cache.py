@@ -185,5 +185,13 @@ def test_cache_command(tmp_path, capsys):
         assert "removed 1 compiled" in capsys.readouterr().out and not (tmp_path / "k-cache").exists()
         assert main(["cache", "info", "--no-cache"]) == 0
         assert "off" in capsys.readouterr().out
+        # A --cache-dir the cache command cannot use is its input's fault: one line, exit 2
+        # (not "caches off (--no-cache, or JAXWALK_CACHE_DIR set empty)", a cause not given).
+        (tmp_path / "afile").write_text("")
+        for action in ("info", "clear"):
+            assert main(["cache", action, "--cache-dir", str(tmp_path / "afile")]) == 2
+            captured = capsys.readouterr()
+            assert captured.out == "" and captured.err.count("\n") == 1
+            assert f"--cache-dir '{tmp_path / 'afile'}' cannot be used" in captured.err
     finally:
         cache.configure(before, enabled=before is not None)
