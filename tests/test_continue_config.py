@@ -114,3 +114,17 @@ def test_dataset_is_self_describing_and_plots(tmp_path, capsys):
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and fragment in err, err
     assert list(other.iterdir()) == []
+
+
+def test_section_variables_say_their_units(tmp_path):
+    """The section coordinates mix angles and rates: every variable over them says which is which."""
+    import xarray as xr
+
+    from jaxwalk.branches.run import build_dataset
+    from jaxwalk.sweep.dataset import write_zarr
+
+    config = load_continue_config("sweeps/continue_simplest.toml")
+    ds = xr.open_zarr(write_zarr(build_dataset(config, *_fake_run(), command="test"), tmp_path / "c.zarr"))
+    for name in ("v", "label_v"):
+        assert json.loads(ds[name].attrs["section_units"]) == ["rad", "rad", "rad"]  # dimensionless time: rad per unit
+        assert "alpha_1 in rad, alpha_1_dot in rad per time unit" in ds[name].attrs["comment"]

@@ -257,6 +257,16 @@ def test_h_max_dataset(tmp_path, fake_analysis):
     assert np.isnan(ds["h_failed"].values[~ok | (drop == 0)]).all()
 
 
+def test_the_fixed_point_says_its_coordinates_units(tmp_path, fake_analysis):
+    """The compass walker's section: an angle and two rates, in SI time (seconds)."""
+    import json
+
+    ds = results_of(run_sweep(loads_config(COMPASS_2D), tmp_path, progress=False, analyse=fake_analysis(), plot=False))
+    for units in (ds["fixed_point"].attrs["section_units"], ds["section"].attrs["section_units"]):
+        assert json.loads(units) == ["rad", "rad s-1", "rad s-1"]
+    assert ds["fixed_point"].attrs["comment"] == "units differ along 'section': alpha_1 in rad, alpha_1_dot in rad s-1, alpha_2_dot in rad s-1"
+
+
 def test_no_h_max_no_step_down_variables(tmp_path, fake_analysis):
     ds = results_of(run_sweep(loads_config(COMPASS_2D), tmp_path, progress=False, analyse=fake_analysis(), plot=False))
     assert not set(STEP_DOWN_KEYS) & set(ds.variables)

@@ -30,6 +30,7 @@ from jaxwalk.branchpoints import BranchPoints, locate_on_branches, switch_at_fli
 from jaxwalk.models import get_model
 from jaxwalk.status import flag_attributes
 from jaxwalk.files import check_output, provenance, write_zarr
+from jaxwalk.sweep.dataset import section_attrs
 
 
 def run_branches(config: ContinueConfig, progress: bool = False):
@@ -154,12 +155,13 @@ def build_dataset(config: ContinueConfig, branches: Branch, labels: BranchPoints
         "failure": ("branch", branches.failure.astype(np.int8), {"long_name": "status of the last failed corrector (ok: none)", **flags}),
         "n_points": ("branch", branches.n_points.astype(np.int32), {"long_name": "points recorded"}),
         "parameter": (bp, branches.p, {"long_name": spec.description, "units": spec.units}),
-        "v": (bps, branches.v, {"long_name": "fixed point of the k-step map (section coordinates)"}),
+        "v": (bps, branches.v, {"long_name": "fixed point of the k-step map (section coordinates)", **section_attrs(model)}),
         "multipliers_real": (bpsm, mu.real, {"long_name": "multipliers of the k-step map, real part (largest modulus first)"}),
         "multipliers_imag": (bpsm, mu.imag, {"long_name": "multipliers of the k-step map, imaginary part"}),
         "lambda_max": (bp, branches.lambda_max, {"long_name": "largest multiplier modulus of the k-step map", "units": "1"}),
         "stable": (bp, branches.lambda_max < 1.0, {"long_name": "lambda_max < 1"}),
-        "ds": (bp, branches.ds, {"long_name": "arclength step that reached the point (0 at a start)"}),
+        "ds": (bp, branches.ds, {"long_name": "arclength step that reached the point (0 at a start)",
+                                 "comment": "the Euclidean length in (v, p): section units and the parameter's together, unscaled"}),
         "iterations": (bp, branches.iterations.astype(np.int32), {"long_name": "corrector evaluations"}),
         "point_status": (bp, branches.status.astype(np.int8), {"long_name": "status of the point (not_computed: past n_points)", **flags}),
         "label_kind": (lab, labels.kind, {"long_name": "kind of labelled point", "flag_values": [int(k) for k in KIND_MEANINGS],
@@ -169,7 +171,7 @@ def build_dataset(config: ContinueConfig, branches: Branch, labels: BranchPoints
         "label_branch": (lab, labels.branch, {"long_name": "branch of the labelled point"}),
         "label_period": (lab, labels.period, {"long_name": "k of the branch"}),
         "label_status": (lab, labels.status, {"long_name": "location status (ok: located to tol)", **flags}),
-        "label_v": (("label", "section"), labels.v, {"long_name": "fixed point there"}),
+        "label_v": (("label", "section"), labels.v, {"long_name": "fixed point there", **section_attrs(model)}),
         "label_multipliers_real": (("label", "multiplier"), labels.multipliers.real, {"long_name": "multipliers there, real part"}),
         "label_multipliers_imag": (("label", "multiplier"), labels.multipliers.imag, {"long_name": "multipliers there, imaginary part"}),
     }

@@ -43,6 +43,24 @@ def output_units(model: Walker) -> dict[str, str]:
     return {"length": length, "time": time, "speed": speed, "energy": energy}
 
 
+def section_units(model: Walker) -> list[str]:
+    """Units of the section coordinates, in ``model.section_names`` order: every one is
+    an angle (rad) or, named ``*_dot``, an angle's rate (rad per time unit) — true of
+    every walker here (the section is a step's start, before any length is free)."""
+    time = output_units(model)["time"]
+    rate = "rad" if time == "1" else f"rad {time}-1"
+    return [rate if name.endswith("_dot") else "rad" for name in model.section_names]
+
+
+def section_attrs(model: Walker) -> dict[str, str]:
+    """Attributes of a variable over the ``section`` axis: its coordinates' units, one each."""
+    units = section_units(model)
+    dimensionless = output_units(model)["time"] == "1"
+    said = [f"{u} per time unit" if dimensionless and n.endswith("_dot") else u for n, u in zip(model.section_names, units)]
+    return {"section_units": json.dumps(units),
+            "comment": "units differ along 'section': " + ", ".join(f"{n} in {u}" for n, u in zip(model.section_names, said))}
+
+
 def units_note(model: Walker) -> str:
     """One sentence on the unit system of a model's numbers (:func:`output_units`)."""
     u = output_units(model)
@@ -76,6 +94,9 @@ def build_dataset(
     """
     created = created or _dt.datetime.now(_dt.timezone.utc)
     data_vars = analyses.variables(config, config.dims, results, output_units(model), model)
+    # Over the section axis units differ by coordinate: say which, on every such variable.
+    data_vars = {k: (dims, values, {**attrs, **section_attrs(model)}) if "section" in dims else (dims, values, attrs)
+                 for k, (dims, values, attrs) in data_vars.items()}
     attrs = dataset_attributes(config, model, command=command, created=created, options=options)
     return xr.Dataset(data_vars, coords=coordinates(config, model), attrs=attrs)
 
@@ -95,6 +116,7 @@ def coordinates(config: SweepConfig, model: Walker) -> dict[str, tuple]:
     coords["section"] = ("section", np.array(model.section_names, dtype=object), {
         "long_name": "section coordinate",
         "description": "section coordinates: the independent coordinates at the start of a step",
+        **section_attrs(model),
     })
     coords["eigen"] = ("eigen", np.arange(len(model.section_names)), {
         "long_name": "eigenvalue index", "description": "eigenvalue index, in the order the analysis returns them",
