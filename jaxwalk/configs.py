@@ -204,7 +204,8 @@ class Solver(Table):
     rtol: float | None = field(None, "a positive number", gt=0, allow_inf_nan=False)
     atol: float | None = field(None, "a positive number", gt=0, allow_inf_nan=False)
     newton_tol: float | None = field(None, "a positive number", gt=0, allow_inf_nan=False)
-    max_newton_iter: int | None = field(None, "a positive integer", ge=1)
+    max_newton_iter: int | None = field(None, "a positive integer", ge=1, le=1000, messages={
+        "less_than_equal": "{where}: {key} = {value} is more than the limit of 1000"})
     predictor: Literal[PREDICTORS] | None = field(None, f"one of {', '.join(PREDICTORS)}")
 
     @classmethod

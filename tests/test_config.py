@@ -371,3 +371,15 @@ def test_another_commands_config_names_that_command(section, command):
     with pytest.raises(ConfigError) as err:
         parse_config(data, source="c.toml")
     assert str(err.value) == f"c.toml: a [{section}] section makes this a '{command}' config, not a sweep: run {command} c.toml"
+
+
+@pytest.mark.parametrize("analysis, match", [
+    ("basin = { samples = 1000000000 }", "[analysis] basin: samples = 1000000000 is more than the limit of 1000000"),
+    ("basin = { steps = 5000 }", "[analysis] basin: steps = 5000 is more than the limit of 1000"),
+    ("h_max = { count = 1000000000 }", "[analysis] h_max: count = 1000000000 is more than the limit of 100000"),
+    ("h_max = { steps = 5000 }", "[analysis] h_max: steps = 5000 is more than the limit of 1000"),
+    ("max_newton_iter = 1000000000", "[analysis]: max_newton_iter = 1000000000 is more than the limit of 1000"),
+])
+def test_work_per_point_is_capped(analysis, match):
+    """A typo's billion starts, drops or iterations per point is refused before anything runs."""
+    assert match in config_error(SIMPLEST + f"[analysis]\n{analysis}\n")

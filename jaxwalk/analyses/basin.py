@@ -46,8 +46,12 @@ class Settings(Table):
     must: ClassVar[str] = "{where}: {key} must be {what}, got {value!r}"
 
     radius: float | None = field(None, "a positive number (scaled section norm)", gt=0, allow_inf_nan=False)  # of the ball of starts
-    samples: int = field(256, "an integer >= 2", ge=2)  # random starts in the ball
-    steps: int = field(60, "an integer >= 1", ge=1)  # most steps walked from a start
+    # Caps as the basin command's starts (jaxwalk.basin.config.MAX_STARTS) and a walk's steps
+    # (jaxwalk.simulate.config.MAX_STEPS): a typo's 1e9 is refused, not run for a year.
+    samples: int = field(256, "an integer >= 2", ge=2, le=1_000_000, messages={  # random starts in the ball
+        "less_than_equal": "{where}: {key} = {value} is more than the limit of 1000000"})
+    steps: int = field(60, "an integer >= 1", ge=1, le=1000, messages={  # most steps walked from a start
+        "less_than_equal": "{where}: {key} = {value} is more than the limit of 1000"})
     tol: float = field(1e-4, "a positive number (scaled section norm)", gt=0, allow_inf_nan=False)  # "returned" within this
     directions: int = field(16, "an integer >= 1", ge=1)  # rays from the fixed point
     scan: int = field(8, "an integer >= 1", ge=1)  # radii scanned along a ray before bisecting

@@ -33,8 +33,11 @@ class Settings(Table):
 
     step: float | None = field(None, "a positive number (the resolution, in model length units)",
                                gt=0, allow_inf_nan=False)
-    count: int | None = field(None, "a positive integer (drops tried: step, 2 step, ..., count * step)", ge=1)
-    steps: int | None = field(None, "a positive integer (steps to survive after the drop)", ge=1)
+    # Caps: a typo's 1e9 is refused, not run for a year.
+    count: int | None = field(None, "a positive integer (drops tried: step, 2 step, ..., count * step)", ge=1,
+                              le=100_000, messages={"less_than_equal": "{where}: {key} = {value} is more than the limit of 100000"})
+    steps: int | None = field(None, "a positive integer (steps to survive after the drop)", ge=1, le=1000,
+                              messages={"less_than_equal": "{where}: {key} = {value} is more than the limit of 1000"})
 
 
 def _h_max_attrs(resolved: Mapping[str, Any], units) -> dict[str, Any]:
