@@ -380,6 +380,8 @@ def cmd_optimize(args: argparse.Namespace) -> int:
     DIR/<name>.zarr and draw it over the lambda_max heatmap, DIR/<name>.png."""
     from jaxwalk.optimize import load_optimize_config, run_optimize, summary
 
+    if args.heatmap is not None and args.no_heatmap:
+        raise UsageError("--heatmap and --no-heatmap contradict each other: give one")
     config = load_optimize_config(args.config)
     path, ds = run_optimize(  # checks --out (and --heatmap) before computing anything
         config, args.out, heatmap_path=args.heatmap, heatmap=not args.no_heatmap, plot=not args.no_plot,
@@ -436,6 +438,8 @@ def _cache_options() -> argparse.ArgumentParser:
 def _configure_cache(args: argparse.Namespace) -> None:
     from jaxwalk import cache
 
+    if getattr(args, "no_cache", False) and getattr(args, "cache_dir", None) is not None:
+        raise UsageError("--no-cache and --cache-dir contradict each other: give one")
     if getattr(args, "no_cache", False):
         cache.configure(enabled=False)
     elif getattr(args, "cache_dir", None) is not None:

@@ -79,6 +79,8 @@ def check_output(out_dir: str | os.PathLike, name: str, *, overwrite: bool = Fal
         ConfigError: ``out_dir`` is not a directory or not writable, or an output
             exists and ``overwrite`` is false.
     """
+    if not str(out_dir).strip():
+        raise ConfigError("--out is empty: name a directory ('.' for this one)")
     out = Path(out_dir)
     target = out / f"{name}.zarr"
     if out.exists() and not out.is_dir():

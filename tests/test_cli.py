@@ -250,3 +250,22 @@ def load_config_text(tmp_path, text):
     path = tmp_path / "sweep.toml"
     path.write_text(text)
     return load_config(path)
+
+
+def test_contradicting_options_and_an_empty_out_are_refused(tmp_path, monkeypatch, capsys):
+    """Options that cancel each other are one line and exit 2, not one of them silently
+    winning; an empty --out is not the current directory by accident."""
+    from jaxwalk import cli
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "sweep.toml").write_text('name = "x"\nmodel = "simplest"\n[grid]\ngamma = { values = [0.01] }\n')
+    cases = [
+        (["cache", "info", "--no-cache", "--cache-dir", str(tmp_path)], "--no-cache and --cache-dir contradict"),
+        (["optimize", "sweep.toml", "--out", "o", "--heatmap", "x.zarr", "--no-heatmap"], "--heatmap and --no-heatmap contradict"),
+        (["sweep", "sweep.toml", "--out", ""], "--out is empty"),
+    ]
+    for argv, fragment in cases:
+        assert cli.main(argv) == 2, argv
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and fragment in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["sweep.toml"]
