@@ -13,6 +13,7 @@ See docs/python.md.
 
 from __future__ import annotations
 
+import operator
 import os
 import tempfile
 from pathlib import Path
@@ -46,9 +47,13 @@ def _count(name: str, value, *, optional: bool = False):
     """``value`` if it is a positive integer (or ``None`` where ``optional``), else a ConfigError."""
     if value is None and optional:
         return value
-    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+    try:
+        number = None if isinstance(value, bool) else operator.index(value)  # ints, NumPy's too
+    except TypeError:
+        number = None
+    if number is None or number < 1:
         raise ConfigError(f"{name} must be a positive integer{' or None' if optional else ''}, got {value!r}")
-    return value
+    return number
 
 
 def _loaded(path: Path) -> xr.Dataset:

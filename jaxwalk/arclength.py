@@ -318,8 +318,10 @@ def _step(residual, project, c: BranchCarry, p_min: Array, p_max: Array, options
         [jnp.int8(Stop.PARAMETER_BOUND), jnp.int8(Stop.MAX_STEPS), jnp.int8(Stop.STEP_TOO_SMALL), jnp.int8(Stop.MAX_ATTEMPTS)],
         jnp.int8(Stop.RUNNING),
     )
-    # A tangent that turned too far is a rejected step with a converged corrector: not Newton's failure.
-    why = jnp.where(status != Status.OK, status, jnp.int8(Status.NOT_LOCATED))
+    # A tangent that turned too far is a rejected step with a converged corrector: not Newton's
+    # failure; a converged corrector with a non-finite tangent is a non-finite number.
+    why = jnp.where(status != Status.OK, status,
+                    jnp.where(jnp.all(jnp.isfinite(t)), jnp.int8(Status.NOT_LOCATED), jnp.int8(Status.NONFINITE)))
     return BranchCarry(u=jnp.where(ok, u, c.u), t=jnp.where(ok, t, c.t), ds=ds_next, stop=stop,
                        failure=jnp.where(ok, c.failure, why), attempts=attempts, record=record)
 

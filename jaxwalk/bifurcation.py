@@ -54,6 +54,7 @@ from jaxwalk import compiling
 from jaxwalk.attractor import AttractorOptions, find_cycle, minimal_period, spectrum
 from jaxwalk.batching import Rows, over_rows, run_chunks, sub_batch_size
 from jaxwalk.bifurcation_edges import shrink_edges
+from jaxwalk.bifurcation_rounds import Rounds as _Rounds
 from jaxwalk.border_collision import jumps, locate_changes
 from jaxwalk.errors import ConfigError
 from jaxwalk.gait import NewtonOptions
@@ -80,7 +81,8 @@ KIND_MEANINGS = {
     Kind.FOLD: "fold: a real multiplier through +1 (or the gait turns back at the edge where it is lost)",
     Kind.FLIP: "flip (period doubling): a real multiplier through -1",
     Kind.NEIMARK_SACKER: "Neimark-Sacker: a complex pair of multipliers through the unit circle",
-    Kind.GRAZING: "grazing: the gait is lost where a step starts to fail (a guard reaches zero: scuffing, a fall, ...)",
+    Kind.GRAZING: ("grazing: the gait is lost where a step starts to fail at a guard or an impact's check "
+                   "(scuffing, a fall, a slip, a pulling contact, ...)"),
     Kind.LOST: ("the gait is lost (Newton fails beyond) with no multiplier near +1 and no guard failing the step "
                 "(beyond: no convergence, a time limit, the solver, too many events, a non-finite state)"),
     Kind.BRANCH_POINT: "branch point: a real multiplier through +1 where the branch does not turn (branches cross)",
@@ -385,8 +387,8 @@ def _collision_row(c: dict) -> dict:
             "jumps": jumps(indicators(c["multipliers_lo"])[None], indicators(c["multipliers_hi"])[None])[0]}
 
 
-#: The failures of a step that a guard reaching zero names: beyond an edge, one of
-#: these makes it grazing. The others (a phase's time limit, the solver, too many
+#: The failures of a step that a guard reaching zero or an impact's check names
+#: (:mod:`jaxwalk.status`): beyond an edge, one of these makes it grazing. The others (a phase's time limit, the solver, too many
 #: events, Newton, a non-finite state, a shorter cycle) name no guard: lost.
 GUARD_FAILURES = frozenset({Status.FELL, Status.STALLED, Status.RUNNING, Status.SHANK_RELEASING, Status.SCUFFING,
                             Status.KNEE_BUCKLED, Status.SLIPPING, Status.FOOT_ROLLING})
@@ -413,68 +415,6 @@ def _sign_brackets(line, i, lo: dict, hi: dict, skip: tuple = ()) -> list[dict]:
                         "f_lo": t_lo[column], "f_hi": t_hi[column], "v_lo": lo["v"], "v_hi": hi["v"],
                         "mu_lo": lo["mu"], "mu_hi": hi["mu"], "sequences": lo["s"]})
     return out
-
-
-class _Rounds:
-    """Counts :func:`locate`'s rounds of batched solves on a progress bar (or nowhere)."""
-
-    def __init__(self, bar, signs, edge_rows, collision_rows, x: np.ndarray, options: BifurcationOptions):
-        self.bar = bar
-        self.sign_left = (options.max_iter + 1) if signs else 0  # the last +1: the midpoints' solve
-        bisections = lambda rows, a, b: (int(np.ceil(np.log2(max(max(abs(x[r[0], b(r)] - x[r[0], a(r)]) for r in rows)
-                                                                      / (2 * options.tol), 1.0)))) if rows else 0)
-        # edges: one more round to solve at the failed grid point
-        self.edge_left = bisections(edge_rows, lambda r: r[1], lambda r: r[2]) + (1 if edge_rows else 0)
-        self.collision_left = bisections(collision_rows, lambda r: r[1], lambda r: r[1] + 1)
-        if bar is not None:
-            bar.total = self.sign_left + self.edge_left + self.collision_left
-            bar.refresh()
-
-    def advance(self, signs: bool = False) -> None:
-        if signs:
-            self.sign_left -= 1
-        if self.bar is not None:
-            self.bar.update(1)
-
-    def signs_done(self) -> None:
-        """The regula falsi ended before ``max_iter``: its unused rounds leave the total."""
-        if self.bar is not None and self.sign_left > 1:
-            self.bar.total -= self.sign_left - 1
-            self.bar.refresh()
-        self.sign_left = min(self.sign_left, 1)
-
-    def no_signs(self) -> None:
-        """No sign change to locate after all (the collisions had none beside them)."""
-        if self.bar is not None and self.sign_left > 0:
-            self.bar.total -= self.sign_left
-            self.bar.refresh()
-        self.sign_left = 0
-
-    def _planned_round(self, left: str) -> None:
-        """One round of a bisection; past the plan (an edge moved on to the next interval) the total grows."""
-        if getattr(self, left) > 0:
-            setattr(self, left, getattr(self, left) - 1)
-        elif self.bar is not None:
-            self.bar.total += 1
-        self.advance()
-
-    def _planned_done(self, left: str) -> None:
-        if self.bar is not None and getattr(self, left) > 0:
-            self.bar.total -= getattr(self, left)
-            self.bar.refresh()
-        setattr(self, left, 0)
-
-    def edge_round(self) -> None:
-        self._planned_round("edge_left")
-
-    def edges_done(self) -> None:
-        self._planned_done("edge_left")
-
-    def collision_round(self) -> None:
-        self._planned_round("collision_left")
-
-    def collisions_done(self) -> None:
-        self._planned_done("collision_left")
 
 
 def _params_at(lines, axis, line_index: np.ndarray, x: np.ndarray, i: np.ndarray) -> dict[str, np.ndarray]:
@@ -567,7 +507,9 @@ def _sign_rows(brackets, state, mid, st, v_m, mu_m, ends: dict, options: Bifurca
       as ``multipliers_beyond``.
 
     Both carry ``jumps``: the test functions whose sign differs between the two
-    (one jump or switch may change two or three: one row)."""
+    (one jump or switch may change two or three: one row). Where a re-solve
+    from either end failed, one gait or two is not known: the row keeps the
+    test's kind with that failure as its status (not located)."""
     out = []
     for r, b in enumerate(brackets):
         kind = b["kind"]
@@ -578,7 +520,12 @@ def _sign_rows(brackets, state, mid, st, v_m, mu_m, ends: dict, options: Bifurca
         # inside the window to far outside it has one side near the crossing.
         mu_lo, mu_hi = ends["mu_lo"][r], ends["mu_hi"][r]
         row = None
-        if state[r] == Status.OK and _two_gaits(r, ends, options):
+        # A re-solve from one end failed: one gait or two is not known, so neither a crossing nor a
+        # jump is confirmed. The row keeps its kind, with that failure as its status (not located).
+        unconfirmed = next((int(ends[k][r]) for k in ("st_lo", "st_hi") if ends[k][r] != Status.OK), None)
+        if state[r] == Status.OK and unconfirmed is not None:
+            status = unconfirmed
+        elif state[r] == Status.OK and _two_gaits(r, ends, options):
             row = {"kind": Kind.SWITCH, "v": ends["v_from_lo"][r], "multipliers": ends["mu_from_lo"][r],
                    "multipliers_beyond": ends["mu_from_hi"][r]}
         elif state[r] == Status.OK and not (_crosses(kind, mu_lo, options) and _crosses(kind, mu_hi, options)):

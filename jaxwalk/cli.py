@@ -448,6 +448,10 @@ def _configure_cache(args: argparse.Namespace) -> None:
             raise UsageError(f"--cache-dir '{args.cache_dir}' cannot be used: {problem}")
         cache.configure(args.cache_dir)
     else:
+        default = cache.default_directory()
+        problem = cache.unusable(default) if default is not None and getattr(args, "run", None) is cmd_cache else None
+        if problem:
+            raise UsageError(f"the cache directory '{default}' ({cache.ENV} or the default) cannot be used: {problem}")
         cache.report()  # the default directory, configured by ``import jaxwalk``
 
 

@@ -237,7 +237,8 @@ def _advance(model: Walker, params, opts: SolverOptions, c: _Carry) -> _Carry:
     ended = event | timeout | out_of_steps
     # Out of steps on a rejected try: the lane ends where it is, at its last accepted step (as
     # diffrax does), not at the try (a NaN try would read NONFINITE; any other, a wrong state).
-    t_ev = jnp.where(at_start, c.t, jnp.where(event | moved, t_ev, c.t))
+    # (A lane that moved without an event ends at its step's end: the located time is another lane's.)
+    t_ev = jnp.where(at_start, c.t, jnp.where(event, t_ev, jnp.where(moved, a.t1, c.t)))
     y_ev = jnp.where(at_start, c.y, jnp.where(event, y_ev, jnp.where(moved, a.y1, c.y)))
     result = diffrax.RESULTS.where(
         event,

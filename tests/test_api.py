@@ -93,6 +93,12 @@ def test_bad_options_raise_the_one_error_type(option, value):
         jaxwalk.sweep({"name": "x", "model": "simplest", "grid": {"gamma": {"values": [0.01]}}}, **{option: value})
 
 
+def test_numpy_integers_are_integers():
+    from jaxwalk.api import _count
+
+    assert _count("chunk_size", np.int64(64)) == 64 and _count("chunk_size", None, optional=True) is None
+
+
 def test_shape_annotations_resolve():
     """The jaxtyping shapes on the result types and core signatures are valid
     annotations (they are strings until asked for: a typo would pass unseen)."""

@@ -441,7 +441,7 @@ def test_a_bracket_closed_by_the_last_allowed_trial_is_located(monkeypatch):
     assert run(trials - 1).status.tolist() == [Status.NOT_LOCATED]
 
 
-def _coexisting(lower_mu, upper_mu):
+def _coexisting(lower_mu, upper_mu, fail_from_q=False):
     """Two gaits of one event sequence: ``P`` (``v = (x, 0)``, multiplier ``lower_mu``) for
     ``x < 0.6``, ``Q`` (``v = (x, 1)``, multiplier ``upper_mu``) for ``x > 0.4``; Newton finds the one
     nearer its start (``v0[1]`` below 1/2: ``P`` where it exists), else the one that exists."""
@@ -454,7 +454,10 @@ def _coexisting(lower_mu, upper_mu):
             q = x > 0.5
         v = np.stack([x, np.where(q, 1.0, 0.0)], 1)
         mu = np.stack([np.where(q, upper_mu, lower_mu), np.full_like(x, 0.1)], 1).astype(np.complex128)
-        return np.zeros(len(x), np.int8), v, mu, np.full((len(x), 1), A, np.int64)
+        status = np.zeros(len(x), np.int8)
+        if fail_from_q and v0 is not None:  # Newton started on Q's own point fails below 0.6
+            status[(np.asarray(v0)[:, 1] == 1.0) & (x < 0.6)] = Status.NO_CONVERGENCE
+        return status, v, mu, np.full((len(x), 1), A, np.int64)
 
     return evaluate
 
@@ -480,3 +483,13 @@ def test_one_gait_on_both_ends_stays_a_jump(monkeypatch):
     x, status, v, mu, _ = _grid([0.0, 1.0], 0.8)
     found = locate(get_model("simplest"), {"gamma": x}, "gamma", status, v, mu, options=BifurcationOptions(tol=1e-7))
     assert found.kind.tolist() == [Kind.JUMP]
+
+
+@pytest.mark.parametrize("lower_mu, upper_mu, kind", [(0.5, 1.5, Kind.FOLD), (0.97, 1.03, Kind.FOLD)])
+def test_a_bracket_whose_re_solve_from_one_end_fails_is_not_located(monkeypatch, lower_mu, upper_mu, kind):
+    """The two coexisting gaits again, but Newton from the upper end's gait fails at the
+    located point: one gait or two is not known there, so the row is neither a jump nor a
+    fold of one gait (as it was when that re-solve's failure was read as "one gait"): the
+    test's kind, not located, with the failure as its status."""
+    found = _run(monkeypatch, _coexisting(lower_mu, upper_mu, fail_from_q=True), [0.0, 1.0], sequences=False)
+    assert found.kind.tolist() == [kind] and found.status.tolist() == [Status.NO_CONVERGENCE]

@@ -193,5 +193,11 @@ def test_cache_command(tmp_path, capsys):
             captured = capsys.readouterr()
             assert captured.out == "" and captured.err.count("\n") == 1
             assert f"--cache-dir '{tmp_path / 'afile'}' cannot be used" in captured.err
+        # The same directory from the environment: its fault too, named as such.
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setenv(cache.ENV, str(tmp_path / "afile"))
+            assert main(["cache", "info"]) == 2
+            err = capsys.readouterr().err
+            assert err.count("\n") == 1 and f"the cache directory '{tmp_path / 'afile'}' ({cache.ENV} or the default) cannot be used" in err
     finally:
         cache.configure(before, enabled=before is not None)

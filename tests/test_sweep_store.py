@@ -161,6 +161,7 @@ def test_a_different_sweep_over_an_unfinished_one_is_refused(tmp_path, fake_anal
     assert cli.main(argv) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "holds an unfinished run of a different sweep (jaxwalk source differ)" in err
+    assert "jaxwalk's code has changed since it started: run it with that code to continue it" in err
     assert listing(tmp_path) == before
     monkeypatch.setattr(jaxwalk.files, "source_digest", digest)
 

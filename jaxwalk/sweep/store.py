@@ -169,10 +169,12 @@ class ChunkStore:
             return
         if self.overwrite:
             return  # discarded when this run writes its first block
-        differ = ", ".join(k for k in self.fingerprint if recorded.get(k) != self.fingerprint[k])
+        differ = [k for k in self.fingerprint if recorded.get(k) != self.fingerprint[k]]
+        how = ("jaxwalk's code has changed since it started: run it with that code to continue it"
+               if differ == ["jaxwalk source"] else "rerun the command that started it to continue it")
         raise ConfigError(
-            f"'{partial}' holds an unfinished run of a different sweep ({differ} differ); "
-            "rerun the command that started it to continue it, or pass --overwrite to discard it and start over"
+            f"'{partial}' holds an unfinished run of a different sweep ({', '.join(differ)} differ); "
+            f"{how}, or pass --overwrite to discard it and start over"
         )
 
     def _read_done(self) -> set[int]:
