@@ -87,7 +87,8 @@ KIND_MEANINGS = {
                 "(beyond: no convergence, a time limit, the solver, too many events, a non-finite state)"),
     Kind.BRANCH_POINT: "branch point: a real multiplier through +1 where the branch does not turn (branches cross)",
     Kind.BORDER_COLLISION: ("border collision: the gait goes on but its step's event sequence changes (checked: the "
-                            "logged sequences differ on the two sides); the multipliers may jump there"),
+                            "logged sequences differ on the two sides, and re-solved there from each side's gait, "
+                            "one fixed point); the multipliers may jump there"),
     Kind.JUMP: ("jump: a fold, flip or Neimark-Sacker test function changes sign between two gaits 2 tol apart, at "
                 "one of which no multiplier (pair) is near the unit circle's crossing, with no event-order change "
                 "found on the two sides (or none logged), and one gait there (re-solved at the located parameter "
@@ -335,7 +336,7 @@ def locate(
         (changes if np.any(lo["s"] != hi["s"]) else smooth).append((line, i, lo, hi, skip))
     collisions, between = locate_changes(solve, changes, options.tol, rounds)
     brackets = [b for seg in smooth + between for b in _sign_brackets(*seg)]
-    rows = _shrink_signs(solve, brackets, options, rounds) + [_collision_row(c) for c in collisions] + edges
+    rows = _shrink_signs(solve, brackets, options, rounds) + _collision_rows(solve, collisions, options, rounds) + edges
     rows.sort(key=lambda r: (r["line"], r["parameter"]))
     return _table(rows, v.shape[-1], period)
 
@@ -385,6 +386,30 @@ def _collision_row(c: dict) -> dict:
             "v": c["v_lo"], "multipliers": c["multipliers_lo"], "beyond": Status.OK, "sequences": c["sequences_lo"],
             "sequence_beyond": c["sequences_hi"][0], "multipliers_beyond": c["multipliers_hi"],
             "jumps": jumps(indicators(c["multipliers_lo"])[None], indicators(c["multipliers_hi"])[None])[0]}
+
+
+def _collision_rows(solve, collisions: list[dict], options: BifurcationOptions, rounds) -> list[dict]:
+    """The located sequence changes' rows: each re-solved at its parameter from each side's
+    gait alone (one batched round). One fixed point: a border collision; two farther apart
+    than ``same_gait``: a :attr:`Kind.SWITCH` (the line passed to a coexisting gait of
+    another sequence; both sequences kept); a failed re-solve: not located, its status."""
+    rows = [_collision_row(c) for c in collisions]
+    closed = [r for r, c in enumerate(collisions) if c["status"] == Status.OK]
+    if not closed:
+        return rows
+    rounds.collision_round()
+    get = lambda key: np.array([collisions[r][key] for r in closed])
+    n = len(closed)
+    st, v, mu, _ = solve(np.tile(get("parameter"), 2), np.tile(get("line"), 2), np.tile(get("i"), 2),
+                         np.concatenate([get("v_lo"), get("v_hi")]))
+    for j, r in enumerate(closed):
+        a, b = j, n + j
+        if st[a] != Status.OK or st[b] != Status.OK:
+            rows[r]["status"] = st[a] if st[a] != Status.OK else st[b]
+        elif np.max(np.abs(v[a] - v[b])) > options.same_gait:
+            rows[r].update(kind=Kind.SWITCH, v=v[a], multipliers=mu[a], multipliers_beyond=mu[b],
+                           jumps=jumps(indicators(mu[a])[None], indicators(mu[b])[None])[0])
+    return rows
 
 
 #: The failures of a step that a guard reaching zero or an impact's check names

@@ -441,7 +441,7 @@ def test_a_bracket_closed_by_the_last_allowed_trial_is_located(monkeypatch):
     assert run(trials - 1).status.tolist() == [Status.NOT_LOCATED]
 
 
-def _coexisting(lower_mu, upper_mu, fail_from_q=False):
+def _coexisting(lower_mu, upper_mu, fail_from_q=False, q_sequence=A):
     """Two gaits of one event sequence: ``P`` (``v = (x, 0)``, multiplier ``lower_mu``) for
     ``x < 0.6``, ``Q`` (``v = (x, 1)``, multiplier ``upper_mu``) for ``x > 0.4``; Newton finds the one
     nearer its start (``v0[1]`` below 1/2: ``P`` where it exists), else the one that exists."""
@@ -457,7 +457,7 @@ def _coexisting(lower_mu, upper_mu, fail_from_q=False):
         status = np.zeros(len(x), np.int8)
         if fail_from_q and v0 is not None:  # Newton started on Q's own point fails below 0.6
             status[(np.asarray(v0)[:, 1] == 1.0) & (x < 0.6)] = Status.NO_CONVERGENCE
-        return status, v, mu, np.full((len(x), 1), A, np.int64)
+        return status, v, mu, np.where(q, q_sequence, A)[:, None].astype(np.int64)
 
     return evaluate
 
@@ -493,3 +493,15 @@ def test_a_bracket_whose_re_solve_from_one_end_fails_is_not_located(monkeypatch,
     test's kind, not located, with the failure as its status."""
     found = _run(monkeypatch, _coexisting(lower_mu, upper_mu, fail_from_q=True), [0.0, 1.0], sequences=False)
     assert found.kind.tolist() == [kind] and found.status.tolist() == [Status.NO_CONVERGENCE]
+
+
+def test_a_sequence_change_between_two_coexisting_gaits_is_a_switch(monkeypatch):
+    """The two coexisting gaits with different event sequences (``Q`` takes ``B``): the
+    bisection on the sequence closes between them, but re-solved there from each side's
+    gait the two sides are two gaits, not one gait through a border collision: a
+    ``switch`` row that keeps both sequences."""
+    found = _run(monkeypatch, _coexisting(0.5, 0.7, q_sequence=B), [0.0, 1.0])
+    assert found.kind.tolist() == [Kind.SWITCH] and found.status.tolist() == [Status.OK]
+    assert 0.4 <= found.parameter[0] <= 0.6
+    assert found.sequence.tolist() == [A] and found.sequence_beyond.tolist() == [B]
+    assert found.multipliers[0, 0].real == 0.5 and found.multipliers_beyond[0, 0].real == 0.7
