@@ -101,6 +101,9 @@ class Walker:
         guards: names of the guard functions (the order of ``guard_values``).
         context: names of the entries of ``ctx``.
         section_names: names of the independent section coordinates ``v``.
+        section_units: their units (CF strings), or ``None``: each an angle (``rad``)
+            or, named ``*_dot``, its rate (``rad`` per time unit), as in every walker
+            here (:func:`jaxwalk.sweep.dataset.section_units`).
         n_constraints: number of constraint rows (active or not).
         limits: names of the contact limits :meth:`limit_use` measures (none by default).
         limit_guards: for each of :attr:`limits`, the name of the guard whose
@@ -139,6 +142,7 @@ class Walker:
     guards: tuple[str, ...] = ()
     context: tuple[str, ...] = ()
     section_names: tuple[str, ...] = ()
+    section_units: tuple[str, ...] | None = None
     n_constraints: int = 0
     limits: tuple[str, ...] = ()
     limit_guards: tuple[str, ...] = ()

@@ -346,3 +346,15 @@ def test_a_gait_sensitivity_norm_nan_at_a_gait_is_nonfinite_but_inf_is_a_value()
     gsn = np.array([1.3, np.inf, np.nan, 2.0])
     out = schema.nonfinite(status, {"gait_sensitivity_norm": gsn}, [GSN])
     np.testing.assert_array_equal(out, [0, 0, Status.NONFINITE, 0])
+
+
+def test_a_model_says_its_own_section_units():
+    """A model whose section is not angles and their rates declares its units."""
+    from jaxwalk.models.compass import CompassWalker
+    from jaxwalk.sweep.dataset import section_units
+
+    class Hopper(CompassWalker):
+        section_units = ("m", "m s-1", "rad s-1")
+
+    assert section_units(Hopper()) == ["m", "m s-1", "rad s-1"]
+    assert section_units(CompassWalker()) == ["rad", "rad s-1", "rad s-1"]

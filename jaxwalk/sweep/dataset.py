@@ -44,9 +44,11 @@ def output_units(model: Walker) -> dict[str, str]:
 
 
 def section_units(model: Walker) -> list[str]:
-    """Units of the section coordinates, in ``model.section_names`` order: every one is
-    an angle (rad) or, named ``*_dot``, an angle's rate (rad per time unit) — true of
-    every walker here (the section is a step's start, before any length is free)."""
+    """Units of the section coordinates, in ``model.section_names`` order: the model's
+    :attr:`~jaxwalk.walker.Walker.section_units`, or by default an angle (rad) or,
+    named ``*_dot``, an angle's rate (rad per time unit), as in every walker here."""
+    if model.section_units is not None:
+        return list(model.section_units)
     time = output_units(model)["time"]
     rate = "rad" if time == "1" else f"rad {time}-1"
     return [rate if name.endswith("_dot") else "rad" for name in model.section_names]
