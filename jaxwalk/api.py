@@ -93,8 +93,8 @@ def sweep(
     from jaxwalk.sweep.integrity import check_complete
     from jaxwalk.sweep.runner import run_sweep
 
-    _count("chunk_size", chunk_size, optional=True)
-    _count("max_points", max_points)
+    chunk_size = _count("chunk_size", chunk_size, optional=True)  # a plain int: recorded and fingerprinted as one
+    max_points = _count("max_points", max_points)
     cfg = _read(
         config, load=load_config, loads=loads_config, parse=parse_config, checked=SweepConfig, kind="sweep",
         max_points=max_points,

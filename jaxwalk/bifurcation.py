@@ -94,9 +94,10 @@ KIND_MEANINGS = {
                 "found on the two sides (or none logged), and one gait there (re-solved at the located parameter "
                 "from either end: one fixed point): the multipliers jump (the step map is not smooth there); "
                 "no bifurcation is named"),
-    Kind.SWITCH: ("switch: a test function's sign changes because the line passes from one gait to another that "
-                  "coexists with it: re-solved at the located parameter from the two ends of the closed bracket, "
-                  "Newton finds two fixed points (farther apart than same_gait); no bifurcation or jump is named"),
+    Kind.SWITCH: ("switch: a test function's sign or the event sequence changes because the line passes from one "
+                  "gait to another that coexists with it: re-solved at the located parameter from the two ends of "
+                  "the closed bracket, Newton finds two fixed points (farther apart than same_gait); no bifurcation, "
+                  "jump or border collision is named"),
 }
 #: Where a multiplier crosses the unit circle at a fold and at a flip.
 _CROSSING_AT = {Kind.FOLD: 1.0, Kind.FLIP: -1.0}

@@ -451,7 +451,8 @@ def _configure_cache(args: argparse.Namespace) -> None:
         default = cache.default_directory()
         problem = cache.unusable(default) if default is not None and getattr(args, "run", None) is cmd_cache else None
         if problem:
-            raise UsageError(f"the cache directory '{default}' ({cache.ENV} or the default) cannot be used: {problem}")
+            raise UsageError(f"the cache directory '{default}' ({cache.ENV}, JAX_COMPILATION_CACHE_DIR or the default) "
+                             f"cannot be used: {problem}")
         cache.report()  # the default directory, configured by ``import jaxwalk``
 
 

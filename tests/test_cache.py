@@ -198,6 +198,6 @@ def test_cache_command(tmp_path, capsys):
             mp.setenv(cache.ENV, str(tmp_path / "afile"))
             assert main(["cache", "info"]) == 2
             err = capsys.readouterr().err
-            assert err.count("\n") == 1 and f"the cache directory '{tmp_path / 'afile'}' ({cache.ENV} or the default) cannot be used" in err
+            assert err.count("\n") == 1 and f"the cache directory '{tmp_path / 'afile'}' ({cache.ENV}, JAX_COMPILATION_CACHE_DIR or the default) cannot be used" in err
     finally:
         cache.configure(before, enabled=before is not None)

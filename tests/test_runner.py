@@ -358,3 +358,9 @@ def test_a_model_says_its_own_section_units():
 
     assert section_units(Hopper()) == ["m", "m s-1", "rad s-1"]
     assert section_units(CompassWalker()) == ["rad", "rad s-1", "rad s-1"]
+
+    class Short(CompassWalker):
+        section_units = ("m",)
+
+    with pytest.raises(ValueError, match="declares 1 section_units for 3 section_names"):
+        section_units(Short())

@@ -20,7 +20,7 @@ along a ``bifurcation`` dimension (one row per point):
 * ``bifurcation_point`` ``(bifurcation, section)`` and
   ``bifurcation_multipliers_real`` / ``_imag`` ``(bifurcation, eigen)`` there;
 * ``bifurcation_sequence`` int64: the gait's event sequence code there; for a
-  border collision, ``bifurcation_sequence_beyond``; for a border collision,
+  border collision (and a switch at a sequence change), ``bifurcation_sequence_beyond``; for a border collision,
   a jump or a switch, ``bifurcation_multipliers_beyond_real`` / ``_imag`` on its
   higher parameter's side and ``bifurcation_jumps`` (which test functions
   change sign by the jump).
@@ -108,7 +108,8 @@ def table_dataset(found, ds, axis: str, others: list[str], line_shape: tuple[int
         "bifurcation_sequence": (dim, found.sequence, {
             "long_name": "event sequence code of the gait's step there (jaxwalk.event_log; 0: not logged)", **names}),
         "bifurcation_sequence_beyond": (dim, found.sequence_beyond, {
-            "long_name": "a border collision's event sequence code on its higher parameter's side (0 for other kinds)", **names}),
+            "long_name": ("a border collision's event sequence code on its higher parameter's side, and a switch's "
+                          "at a sequence change (0 for other kinds)"), **names}),
         "bifurcation_multipliers_beyond_real": ((dim, "eigen"), found.multipliers_beyond.real, {
             "long_name": "real part of a border collision's, a jump's or a switch's multipliers on its higher parameter's side (NaN for other kinds)"}),
         "bifurcation_multipliers_beyond_imag": ((dim, "eigen"), found.multipliers_beyond.imag, {

@@ -48,6 +48,9 @@ def section_units(model: Walker) -> list[str]:
     :attr:`~jaxwalk.walker.Walker.section_units`, or by default an angle (rad) or,
     named ``*_dot``, an angle's rate (rad per time unit), as in every walker here."""
     if model.section_units is not None:
+        if len(model.section_units) != len(model.section_names):
+            raise ValueError(f"model '{model.name}' declares {len(model.section_units)} section_units for "
+                             f"{len(model.section_names)} section_names")
         return list(model.section_units)
     time = output_units(model)["time"]
     rate = "rad" if time == "1" else f"rad {time}-1"
@@ -57,8 +60,9 @@ def section_units(model: Walker) -> list[str]:
 def section_attrs(model: Walker) -> dict[str, str]:
     """Attributes of a variable over the ``section`` axis: its coordinates' units, one each."""
     units = section_units(model)
-    dimensionless = output_units(model)["time"] == "1"
-    said = [f"{u} per time unit" if dimensionless and n.endswith("_dot") else u for n, u in zip(model.section_names, units)]
+    # A default rate in a dimensionless model is "rad" per time unit: say so (a declared unit is as declared).
+    derived = model.section_units is None and output_units(model)["time"] == "1"
+    said = [f"{u} per time unit" if derived and n.endswith("_dot") else u for n, u in zip(model.section_names, units)]
     return {"section_units": json.dumps(units),
             "comment": "units differ along 'section': " + ", ".join(f"{n} in {u}" for n, u in zip(model.section_names, said))}
 
