@@ -30,7 +30,9 @@ one Newton step ``t* = t_K - g(t_K)/g'(t_K)`` whose ``t_K`` and ``g'`` are
 held constant (``stop_gradient``), so ``dt*/dp = -(dg/dp)/g'`` exactly,
 whatever the root finder did before. The loop has one level, so ``jvp``
 traces its body once (a nested loop re-traced every level's body until its
-tangents were stable).
+tangents were stable). With ``SolverOptions.reverse_mode`` the loop is
+equinox's checkpointed while loop and ``jax.grad`` works through a step (the
+same derivatives as forward mode: tests/test_flatstep.py).
 """
 
 from __future__ import annotations
@@ -77,8 +79,11 @@ class _Carry(NamedTuple):
 
 def _solver(opts: SolverOptions):
     """The Runge-Kutta solver, its stages in a plain ``lax.scan`` (diffrax's
-    default, a checkpointed scan, is reverse-mode only; ``ForwardMode`` does the same)."""
-    return eqx.tree_at(lambda s: s.scan_kind, opts.make_solver(), "lax", is_leaf=lambda x: x is None)
+    default, a checkpointed scan, is reverse-mode only; ``ForwardMode`` does the
+    same), or in equinox's bounded scan where ``opts.reverse_mode`` asks for
+    ``jax.grad`` (a ``lax`` loop with a dynamic trip count has no transpose)."""
+    kind = "bounded" if opts.reverse_mode else "lax"
+    return eqx.tree_at(lambda s: s.scan_kind, opts.make_solver(), kind, is_leaf=lambda x: x is None)
 
 
 def _min_guard(model: Walker, params, t, y, phase, ctx, offsets):
@@ -304,5 +309,10 @@ def run_step_flat(model: Walker, params: Params, y0: Float[Array, "2*n_q"], phas
     )
     carry0 = jax.tree_util.tree_map(lambda x: state_dependent(x, y0), carry0)  # one trace of the body under jvp, vmap
     running = lambda c: c.status == Status.IN_PROGRESS
-    c = jax.lax.while_loop(running, lambda c: _advance(model, params, opts, c), carry0)
+    body = lambda c: _advance(model, params, opts, c)
+    if opts.reverse_mode:  # jax.grad through the step: a checkpointed loop with a bound on its trips
+        bound = (opts.max_events + 1) * opts.max_solver_steps
+        c = eqxi.while_loop(running, body, carry0, max_steps=bound, kind="checkpointed")
+    else:
+        c = jax.lax.while_loop(running, body, carry0)
     return StepResult(c.y, c.ctx, c.phase, c.t, c.length, c.status, c.n_events, c.work, c.ode_steps, c.guard)

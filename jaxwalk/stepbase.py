@@ -52,6 +52,12 @@ class SolverOptions:
         event_iterations: root-finder iterations per located event in the flat
             engine (a fixed count; a step whose event does not converge in it is
             retried at half the size).
+        reverse_mode: the flat engine's loop as a checkpointed while loop
+            (equinox's, bounded by ``(max_events + 1) * max_solver_steps``
+            iterations) and its Runge-Kutta stages in a bounded scan, so that
+            ``jax.grad`` (reverse mode) differentiates a step; forward mode
+            (``jvp``, ``jacfwd``) works either way and compiles faster without
+            it. Needs ``engine="flat"``.
         pcoeff, icoeff, safety: the step-size controller's proportional and
             integral coefficients and its safety factor (diffrax's
             ``PIDController``; ``pcoeff = 0, icoeff = 1`` is the plain integral
@@ -88,8 +94,12 @@ class SolverOptions:
     icoeff: float = 1.0
     safety: float | None = None
     carry_step: bool | None = None
+    reverse_mode: bool = False
 
     def __post_init__(self):
+        if self.reverse_mode and self.engine != "flat":
+            raise ValueError(f"SolverOptions.reverse_mode needs engine='flat' (the nested engine's loops "
+                             f"cannot be reverse-differentiated), got engine={self.engine!r}")
         # run_step's loop is bounded by max_events (its condition); a step has at least one event.
         if self.max_events < 1:
             raise ValueError(f"SolverOptions.max_events must be >= 1, got {self.max_events}")
