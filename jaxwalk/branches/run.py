@@ -30,6 +30,9 @@ from jaxwalk.branchpoints import BranchPoints, locate_on_branches, switch_at_fli
 from jaxwalk.models import get_model
 from jaxwalk.status import flag_attributes
 from jaxwalk.files import check_output, provenance, write_zarr
+
+#: The location's regula falsi iterations per labelled point (a progress bar's bound).
+LOCATE_ITERATIONS = 80
 from jaxwalk.sweep.dataset import section_attrs
 
 
@@ -56,7 +59,8 @@ def run_branches(config: ContinueConfig, progress: bool = False):
     first = jax.tree_util.tree_map(np.asarray, compiling.jit(jax.vmap(one), model)(params))
     say.done(f"{int(first.n_points.sum())} points")
     with say.rounds("locating folds, flips and Neimark-Sacker points") as advance:
-        labels = locate_on_branches(problem, params, first, tol=config.tol, options=config.options, advance=advance)
+        labels = locate_on_branches(problem, params, first, tol=config.tol, max_iter=LOCATE_ITERATIONS,
+                                    options=config.options, advance=advance)
     parts, periods, origins = [first], [config.period] * len(starts), [-1] * len(starts)
     flips = np.flatnonzero((labels.kind == Kind.FLIP) & (labels.status == 0)) if config.switch_branches else []
     if len(flips):
@@ -65,7 +69,8 @@ def run_branches(config: ContinueConfig, progress: bool = False):
         switched = _switch(problem, config, labels, flips, opts)
         say.done(f"{int(switched[2].n_points.sum())} points")
         with say.rounds("locating their folds, flips and Neimark-Sacker points") as advance:
-            more = locate_on_branches(switched[0], switched[1], switched[2], tol=config.tol, options=opts, advance=advance)
+            more = locate_on_branches(switched[0], switched[1], switched[2], tol=config.tol, max_iter=LOCATE_ITERATIONS,
+                                      options=opts, advance=advance)
         more = more._replace(branch=more.branch + len(starts))
         parts.append(switched[2]); periods += [2 * config.period] * len(flips); origins += flips.tolist()
         labels = BranchPoints(*(np.concatenate([a, b]) for a, b in zip(labels, more)))
@@ -103,8 +108,9 @@ class _Stages:
         if self.on:
             print(f"  {what} in {time.perf_counter() - self.started:.0f} s", file=sys.stderr, flush=True)
 
-    def rounds(self, desc: str):
-        """A bar over the location's rounds (at most ``max_iter + 1``; it usually ends sooner)."""
+    def rounds(self, desc: str, most: int = LOCATE_ITERATIONS + 1):
+        """A bar over the location's rounds: ``most`` at most (its total, so the time
+        left shown is an upper bound; the regula falsi usually ends far sooner)."""
         import contextlib
         import sys
 
@@ -114,8 +120,10 @@ class _Stages:
 
         @contextlib.contextmanager
         def bar():
-            with tqdm(desc=desc, unit="round", file=sys.stderr, leave=False) as b:
+            with tqdm(desc=desc, total=most, unit="round", file=sys.stderr, leave=False) as b:
                 yield b.update
+                b.total = b.n  # ended sooner: done
+                b.refresh()
 
         return bar()
 
