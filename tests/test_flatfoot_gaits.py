@@ -126,6 +126,31 @@ def test_ankle_rest_angles_step_matches_the_independent_scipy_walker(changes):
         assert abs(float(res.ctx[ph.C[name]]) - float(ctx_next[ph.C[name]])) < 1e-9, name
 
 
+def test_swing_burst_step_matches_the_independent_scipy_walker():
+    """The hip flexor burst written again in the SciPy reference (the hip torque
+    while the swing knee is free, and its work): the same step from the shoe gait
+    with ``swing_burst`` 0.02, and the burst's work is its torque times the
+    thighs' spread over the swing phase, which a step without it lacks."""
+    from tests.reference import flatfoot as ref
+
+    p, v, _, _, _ = _gait("shoe")
+    burst = 0.02
+    works = []
+    for value in (0.0, burst):
+        q = with_params(p, swing_burst=value)
+        v1, res = step_fn(v, q)
+        assert int(res.status) == Status.OK
+        v1_ref, info = ref.step_map(np.asarray(v), {k: float(x) for k, x in q.items()})
+        assert info["status"] == "ok"
+        np.testing.assert_allclose(v1_ref, np.asarray(v1), rtol=0.0, atol=1e-8)
+        assert abs(info["time"] - float(res.time)) < 1e-7 and abs(info["work"] - float(res.work)) < 1e-8
+        names = [ev.GUARD_NAMES[c] for c in ph.decode_history(np.asarray(res.ctx))]
+        assert [name for name, _ in info["events"]] == names
+        works.append(float(res.work))
+    # The burst pushes the swing thigh forward, so it does positive work and the step changes.
+    assert works[1] - works[0] > 1e-3, works
+
+
 def test_the_stance_foot_rolls_at_the_same_instant_in_the_independent_scipy_walker():
     """The flat stance foot's centre-of-pressure limit (``foot_roll``) written again
     in the SciPy reference (moment balance of the massless foot about its ankle,

@@ -18,7 +18,7 @@ PAPER: dict[str, float] = {
     "m_h": 0.678, "m_t": 0.100, "m_s": 0.0465, "m_f": 0.0145,
     "l_t": 0.5, "l_s": 0.5, "c_t": 0.433, "c_s": 0.433,
     "l_f": 0.22, "r": 0.4,
-    "k": 0.03, "P": 0.0076, "k_hip": 0.0, "ankle_push": 0.0, "heel_brake": 0.0, "hip_double_support": 1.0,
+    "k": 0.03, "P": 0.0076, "swing_burst": 0.0, "k_hip": 0.0, "ankle_push": 0.0, "heel_brake": 0.0, "hip_double_support": 1.0,
     "delay": 0.066, "knee_lock": 0.2,
     "scuff_tol": 0.03, "rho_t": 0.0, "rho_s": 0.0,
     "knee_gate": 0.0, "swing_dorsi": 0.0, "mu": 1e6,
