@@ -137,6 +137,47 @@ class _FakeSensitivity:
         )
 
 
+def test_gait_guess_is_where_each_start_s_first_search_begins(monkeypatch):
+    """``[starts] gait_guess``: one point for every start, or one per start, is the
+    ``v0`` of each start's first gait search in place of the model's initial
+    guess (a gait reached by continuation, far from the documented ones, can be
+    optimised from), and the resolved config keeps it."""
+    from jaxwalk.models import get_model
+    from jaxwalk.optimize.engine import optimise
+
+    seen = []
+    fake = _FakeSensitivity(("gamma",), lambda p: p[:, 0] ** 2, lambda p: 2 * p, lambda p: p[:, 0],
+                            lambda p: np.ones_like(p), lambda p: np.zeros(p.shape[0], bool))
+    _fake(monkeypatch, lambda params, v0: seen.append(np.asarray(v0)) or fake(params, v0))
+    points = [[0.21, -0.19, -0.18], [0.22, -0.18, -0.17]]
+    per_start = parse(GOOD + f"gait_guess = {points}\n")
+    one = parse(GOOD + f"gait_guess = {points[0]}\n")
+    np.testing.assert_array_equal(one.guesses, [points[0]] * 2)
+    again = parse_optimize_config(per_start.to_dict(), source="round trip")
+    np.testing.assert_array_equal(again.guesses, per_start.guesses)
+    model = get_model("simplest")
+    optimise(model, per_start.problem, per_start.fixed_per_start(), per_start.starts, guesses=per_start.guesses)
+    np.testing.assert_array_equal(seen[0], points)
+    seen.clear()
+    optimise(model, per_start.problem, per_start.fixed_per_start(), per_start.starts)
+    guess = [np.asarray(model.initial_guess({**per_start.fixed, "gamma": g})) for g in (0.005, 0.009)]
+    np.testing.assert_array_equal(seen[0], guess)
+
+
+@pytest.mark.parametrize("guess, message", [
+    ("[0.21, -0.19]", "each point must be 3 numbers"),
+    ("[[0.2, -0.1, -0.1], [0.2, -0.1, -0.1], [0.2, -0.1, -0.1]]", "3 points for 2 starts"),
+    ('["a", -0.1, -0.1]', "each point must be 3 numbers"),
+    ("[nan, -0.1, -0.1]", "each point must be 3 numbers"),
+    ("0.2", "each point must be 3 numbers"),
+])
+def test_a_bad_gait_guess_is_one_line(guess, message):
+    with pytest.raises(ConfigError) as err:
+        parse(GOOD + f"gait_guess = {guess}\n")
+    text = str(err.value)
+    assert message in text and "[starts] gait_guess" in text and "\n" not in text
+
+
 def _fake(monkeypatch, fake):
     import jaxwalk.optimize.engine as engine
 
@@ -222,7 +263,9 @@ def test_bundled_optimize_configs_are_valid(path):
 
     cfg = load_optimize_config(path)
     assert cfg.name == path.stem
-    assert cfg.heatmap and cfg.starts.shape[0] >= 1
+    # A background is drawn wherever the paths can be drawn over one (one or two
+    # optimised parameters); a descent over more has none to draw.
+    assert (bool(cfg.heatmap) or len(cfg.problem.names) > 2) and cfg.starts.shape[0] >= 1
 
 
 
@@ -309,6 +352,26 @@ def test_the_background_grid_runs_while_the_optimiser_compiles(monkeypatch, tmp_
     assert len(running) == 6 and not any(running)  # 5 iterations and the start
     np.testing.assert_array_equal(ds.heatmap_lambda_max.values, np.arange(4.0))
     assert target.exists()
+
+
+def test_a_descent_over_several_parameters_without_a_background_is_drawn_along_its_iterations(monkeypatch, tmp_path):
+    """Paths over three optimised parameters cannot be drawn over a map: the
+    figure shows lambda_max against the iteration, with the stability limit."""
+    import matplotlib.figure
+
+    from jaxwalk.optimize.output import run_optimize
+
+    fake = _FakeSensitivity(("gamma", "m_h", "a"), lambda p: (p ** 2).sum(1), lambda p: 2 * p, lambda p: p[:, 0],
+                            lambda p: np.ones_like(p), lambda p: np.zeros(p.shape[0], bool))
+    _fake(monkeypatch, fake)
+    drawn, savefig = [], matplotlib.figure.Figure.savefig
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", lambda fig, path, **kw: (
+        drawn.append((fig.axes[0].get_xlabel(), fig.axes[0].get_ylabel())), savefig(fig, path, **kw)))
+    config = parse(GOOD.replace('"simplest"', '"compass"').replace(
+        "bounds = { gamma = [0.004, 0.0145] }", "bounds = { gamma = [0.004, 0.0145], m_h = [5.0, 15.0], a = [0.4, 0.6] }"))
+    target, ds = run_optimize(config, tmp_path / "out", plot=True, progress=False)
+    assert drawn == [("iteration", "lambda_max")] and ds.sizes["iteration"] == 6
+    assert (tmp_path / "out" / "opt.png").stat().st_size > 0
 
 
 def test_no_background_grid_asked_for_starts_no_thread_and_compiles_nothing_ahead(monkeypatch, tmp_path):

@@ -17,6 +17,7 @@ optimise over which parameters, from which starts (see ``docs/optimize.md``)::
     [starts]                       # equal-length arrays (or one number for all)
     r = [0.40, 0.45]
     l_f = [0.21, 0.22]             # a fixed parameter may vary per start
+    # gait_guess = [[0.33, -0.37], [0.32, -0.37]]   # optional: Newton's first start per start (section coordinates)
     [heatmap]                      # optional lambda_max background (a sweep's [grid] axes)
     r = { start = 0.3, stop = 0.6, num = 13 }
     continuation = "r"
@@ -73,6 +74,8 @@ class OptimizeConfig:
         problem: the :class:`~jaxwalk.optimize.engine.Problem`.
         starts: ``(S, n_p)`` initial values of the optimised parameters.
         start_fixed: ``{name: (S,)}`` fixed parameters that vary per start.
+        guesses: ``(S, n_v)`` where each start's first gait search begins (the
+            model's section coordinates), or ``None``: the model's initial guess.
         heatmap: the background grid's axes (``GridAxis``), empty when not asked for.
         heatmap_continuation: axis to continue along in the background grid, or ``None``.
         solver: the ``[analysis]`` solver settings given.
@@ -88,6 +91,7 @@ class OptimizeConfig:
     heatmap: tuple[GridAxis, ...] = ()
     heatmap_continuation: str | None = None
     solver: dict[str, float | int] = dataclasses.field(default_factory=dict)
+    guesses: np.ndarray | None = None
     source: str = "<config>"
     text: str | None = None
 
@@ -119,7 +123,8 @@ class OptimizeConfig:
             "params": {k: v for k, v in self.fixed.items() if k not in self.start_fixed},
             "optimize": opt,
             "starts": {**{n: self.starts[:, i].tolist() for i, n in enumerate(p.names)},
-                       **{k: v.tolist() for k, v in self.start_fixed.items()}},
+                       **{k: v.tolist() for k, v in self.start_fixed.items()},
+                       **({} if self.guesses is None else {GUESS_KEY: self.guesses.tolist()})},
             "analysis": dict(self.solver),
         }
         if self.heatmap:
@@ -153,15 +158,34 @@ def parse_optimize_config(data: Mapping[str, Any], *, source: str = "<config>", 
         raise fail("[optimize] is missing or empty: give at least bounds = { <parameter> = [lower, upper] }")
     problem = Optimize.check(table, fail).problem(specs, params, model_name, fail)
     _check_capabilities(problem, model, fail)
-    starts, start_fixed = _starts(data.get("starts", {}), problem, specs, params, model_name, fail)
+    starts_raw = dict(data.get("starts", {})) if isinstance(data.get("starts", {}), Mapping) else data.get("starts")
+    guess = starts_raw.pop(GUESS_KEY, None) if isinstance(starts_raw, dict) else None
+    starts, start_fixed = _starts(starts_raw, problem, specs, params, model_name, fail)
+    guesses = None if guess is None else _guesses(guess, starts.shape[0], len(model.section_names), fail)
     heatmap, continuation = _heatmap(data.get("heatmap", {}), specs, model_name, fail)
     solver = Solver.check(data.get("analysis", {}), fail).model_dump(exclude_none=True)
     fixed = {k: float(s.default) for k, s in specs.items() if k not in problem.names}
     fixed.update(params)
     return OptimizeConfig(
         name=name, model=model_name, fixed=fixed, problem=problem, starts=starts, start_fixed=start_fixed,
-        heatmap=heatmap, heatmap_continuation=continuation, solver=solver, source=source, text=text,
+        heatmap=heatmap, heatmap_continuation=continuation, solver=solver, source=source, text=text, guesses=guesses,
     )
+
+
+#: The ``[starts]`` key of Newton's first start points (not a parameter).
+GUESS_KEY = "gait_guess"
+
+
+def _guesses(value, n_start: int, n_v: int, fail) -> np.ndarray:
+    """``(S, n_v)`` from ``gait_guess``: one point of ``n_v`` numbers for every start, or one per start."""
+    where, shape = f"[starts] {GUESS_KEY}", f"{n_v} numbers (the model's section coordinates)"
+    rows = value if isinstance(value, list) and value and all(isinstance(r, list) for r in value) else [value]
+    for row in rows:
+        if not isinstance(row, list) or len(row) != n_v or not all(_number(x) for x in row):
+            raise fail(f"{where}: each point must be {shape}, got {row!r}")
+    if len(rows) not in (1, n_start):
+        raise fail(f"{where}: {len(rows)} points for {n_start} starts; give one point, or one per start")
+    return np.broadcast_to(np.asarray(rows, np.float64), (n_start, n_v)).copy()
 
 
 def _default(name: str) -> Any:

@@ -242,6 +242,7 @@ def optimise(
     newton: NewtonOptions = NewtonOptions(),
     progress=None,
     before_running=None,
+    guesses: np.ndarray | None = None,
 ) -> Path:
     """Run ``problem`` from every start at once.
 
@@ -260,11 +261,14 @@ def optimise(
             optimiser's eigenvalues of thousands of starts, split over the
             thread pool and can wait on it for good when every pool thread runs
             a program: jaxwalk.mechanics).
+        guesses: ``(S, n_v)`` where each start's first gait search begins (the
+            model's section coordinates), or ``None`` for the model's
+            ``initial_guess`` at the start's parameters.
     """
     setup = _setup(model, problem, fixed, starts.shape[0], solver, newton)
     opt = make_optimizer(problem)
     opt_update = jax.jit(jax.vmap(opt.update))  # one optimiser per start: norms are per start
-    run = _begin(setup, opt, starts)
+    run = _begin(setup, opt, starts, guesses)
     if before_running is not None:
         setup = _compiled(setup, run)
         before_running()
@@ -313,13 +317,16 @@ def _arguments(setup: _Setup, run: _Starts) -> tuple[dict, jax.Array]:
     return batch, jnp.asarray(run.v0)
 
 
-def _begin(setup: _Setup, opt, starts: np.ndarray) -> _Starts:
-    """Every start at its initial point, Newton from the model's guess there."""
+def _begin(setup: _Setup, opt, starts: np.ndarray, guesses: np.ndarray | None) -> _Starts:
+    """Every start at its initial point, Newton from ``guesses`` or the model's guess there."""
     n_start = starts.shape[0]
     names, fixed = setup.problem.names, setup.fixed
     x = np.clip((starts - setup.lo) / setup.width, 0.0, 1.0)
-    v0 = np.stack([np.asarray(setup.model.initial_guess({**{k: v[i] for k, v in fixed.items()}, **dict(zip(names, starts[i]))}))
-                   for i in range(n_start)])
+    if guesses is not None:
+        v0 = np.array(guesses, np.float64).reshape(n_start, -1)
+    else:
+        v0 = np.stack([np.asarray(setup.model.initial_guess({**{k: v[i] for k, v in fixed.items()}, **dict(zip(names, starts[i]))}))
+                       for i in range(n_start)])
     return _Starts(
         x=x, v0=v0, good_x=x.copy(), good_v=v0.copy(), state=jax.vmap(opt.init)(jnp.asarray(x)),
         multipliers=np.zeros((n_start, len(setup.held))), active=np.ones(n_start, bool),

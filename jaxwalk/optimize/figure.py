@@ -42,13 +42,18 @@ def draw_paths(ds: xr.Dataset, target) -> None:
             ax.contour(ds[f"heatmap_{x_name}"].values, ds[f"heatmap_{y_name}"].values, lam.values, levels=[1.0], colors="w", linewidths=1)
         xs, ys = _start_coordinate(ds, x_name), _start_coordinate(ds, y_name)
         ax.set_xlabel(x_name), ax.set_ylabel(y_name)
-    else:
+    elif axes or len(names) == 1:
         x_name = axes[0] if axes else names[0]
         if axes:
             lam = ds["heatmap_lambda_max"].where(ds["heatmap_status"] == 0)
             ax.plot(ds[f"heatmap_{x_name}"].values, lam.values, "-", color="0.5", label="grid")
         xs, ys = _start_coordinate(ds, x_name), ds["lambda_max"].values
         ax.set_xlabel(x_name), ax.set_ylabel("lambda_max")
+    else:  # several parameters and no background: lambda_max along the iterations
+        xs = np.broadcast_to(np.arange(ds.sizes["iteration"], dtype=float)[:, None], ds["status"].shape)
+        ys = ds["lambda_max"].values
+        ax.axhline(1.0, color="0.5", ls="--", lw=1)
+        ax.set_xlabel("iteration"), ax.set_ylabel("lambda_max")
     for s in range(accepted.shape[1]):
         ok = accepted[:, s]
         line, = ax.plot(xs[ok, s], ys[ok, s], ".-", ms=3, lw=1)

@@ -232,7 +232,7 @@ def run_optimize(config: OptimizeConfig, out_dir, *, heatmap_path=None, heatmap:
         with tqdm(total=config.problem.iterations + 1, unit="it", desc=desc, disable=not progress, file=sys.stderr) as bar:
             path = optimise(
                 model, config.problem, config.fixed_per_start(), config.starts, solver, newton, progress=lambda k: bar.update(1),
-                before_running=None if beside is None else wait_for_background,
+                before_running=None if beside is None else wait_for_background, guesses=config.guesses,
             )
     except BaseException:
         if beside is not None:
