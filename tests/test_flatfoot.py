@@ -463,7 +463,7 @@ OPTION_CASES = {
     # (0.8 already scuffs from the nominal gait: the swing starts slower)
     "hip_double_support": {"k_hip": 0.002, "hip_double_support": 0.9},
     "heel_brake": {"heel_brake": 1e-4},
-    "swing_burst": {"swing_burst": 1e-4},
+    "swing_torque": {"swing_torque": 1e-4},
     "ankle_rest": {"ankle_rest": 0.003},
     "ankle_reset": {"ankle_reset": 0.05},
     "trailing_reset": {"ankle_reset": 0.05, "trailing_reset": 0.0},

@@ -3,8 +3,8 @@ penetration (docs/model.md, "The hip-spring gait", "The push-off gait", "The
 swing-hip gait" and "The shoe gait", the gait of the defaults), each found by
 Newton from its stored guess,
 and each step held against the SciPy reference walker (tests/reference/flatfoot),
-which has the hip spring, the push-off and heel-brake torques and the hip's share
-in double support written again by hand."""
+which has the hip spring, the push-off, heel-brake and swing torques and the
+hip's share in double support written again by hand."""
 
 from __future__ import annotations
 
@@ -126,18 +126,17 @@ def test_ankle_rest_angles_step_matches_the_independent_scipy_walker(changes):
         assert abs(float(res.ctx[ph.C[name]]) - float(ctx_next[ph.C[name]])) < 1e-9, name
 
 
-def test_swing_burst_step_matches_the_independent_scipy_walker():
-    """The hip flexor burst written again in the SciPy reference (the hip torque
-    while the swing knee is free, and its work): the same step from the shoe gait
-    with ``swing_burst`` 0.02, and the burst's work is its torque times the
-    thighs' spread over the swing phase, which a step without it lacks."""
+def test_swing_torque_step_matches_the_independent_scipy_walker():
+    """The swing torque written again in the SciPy reference (the hip torque in
+    phase swing, and its work): the same step from the shoe gait with and
+    without ``swing_torque`` 0.02, the same events, and the same step work,
+    which with the torque is larger (it pushes the swing thigh forward)."""
     from tests.reference import flatfoot as ref
 
     p, v, _, _, _ = _gait("shoe")
-    burst = 0.02
     works = []
-    for value in (0.0, burst):
-        q = with_params(p, swing_burst=value)
+    for value in (0.0, 0.02):
+        q = with_params(p, swing_torque=value)
         v1, res = step_fn(v, q)
         assert int(res.status) == Status.OK
         v1_ref, info = ref.step_map(np.asarray(v), {k: float(x) for k, x in q.items()})
@@ -147,7 +146,6 @@ def test_swing_burst_step_matches_the_independent_scipy_walker():
         names = [ev.GUARD_NAMES[c] for c in ph.decode_history(np.asarray(res.ctx))]
         assert [name for name, _ in info["events"]] == names
         works.append(float(res.work))
-    # The burst pushes the swing thigh forward, so it does positive work and the step changes.
     assert works[1] - works[0] > 1e-3, works
 
 

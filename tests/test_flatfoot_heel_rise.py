@@ -254,12 +254,14 @@ _SHOE = {name: float(value) for name, value in SHOE_PARAMS.items()}
         ({"ankle_reset": 1.0, "k": 0.15}, (0.18709204, -0.18734030, -0.22846435)),
         # Heel rise in swing, heel drop at knee-strike (an impact), heel rise again in locked swing.
         ({"P": 0.0748, "ankle_reset": 1.0, "k": 0.2139}, (0.26713, -0.26713, -0.44476)),
+        # The same with a swing torque, which acts in swing_heel_up too.
+        ({"P": 0.0748, "ankle_reset": 1.0, "k": 0.2139, "swing_torque": 0.002}, (0.26713, -0.26713, -0.44476)),
         # Only the stance spring relaxed at toe-strike: the heel-up gait of the test above.
         (STANCE_RESET, STANCE_RESET_GUESS),
         # Less push-off and hip torque: the stiffest locally stable gait at a shoe's friction.
         (PUSH_K, PUSH_K_GUESS),
     ],
-    ids=["heel_pivot", "raised_start", "drop", "stance_reset", "push_k_0.26"],
+    ids=["heel_pivot", "raised_start", "drop", "drop_swing_torque", "stance_reset", "push_k_0.26"],
 )
 def test_the_step_matches_the_independent_scipy_walker(changes, start):
     """The SciPy reference written again from docs/model.md (tests/reference/flatfoot,

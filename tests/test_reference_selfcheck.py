@@ -287,14 +287,14 @@ def test_flatfoot_reference_mass_matrix_closed_form_is_the_point_sum():
 
 
 @pytest.mark.parametrize("option", [{}, {"ankle_push": 1e-4}, {"k_hip": 0.002, "hip_double_support": 0.9}, {"heel_brake": 1e-4},
-                                    {"swing_burst": 1e-4}, {"ankle_rest": 0.003}, {"ankle_reset": 0.05}],
-                         ids=["nominal", "ankle_push", "hip_double_support", "heel_brake", "swing_burst", "ankle_rest",
+                                    {"swing_torque": 1e-4}, {"ankle_rest": 0.003}, {"ankle_reset": 0.05}],
+                         ids=["nominal", "ankle_push", "hip_double_support", "heel_brake", "swing_torque", "ankle_rest",
                               "ankle_reset"])
 def test_flatfoot_reference_conserves_energy_minus_actuator_work_in_every_phase(option):
     """Along the step from the nominal gait, energy (kinetic, gravity, springs)
     minus the actuators' work is constant within each phase, and the active
     constraints keep holding: the hand-derived forces are those of the potentials
-    (docs/model.md, "Forces"), the push-off and heel-brake torques', the hip's
+    (docs/model.md, "Forces"), the push-off, heel-brake and swing torques', the hip's
     double-support share and the ankle's rest angles (constant, or set at toe-strike) included."""
     from tests.reference import flatfoot as ff
     from tests.reference.flatfoot.constraints import ACTIVE, constraint_terms

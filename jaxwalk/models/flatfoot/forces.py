@@ -14,8 +14,9 @@ The hip torque is a constant ``P`` between the thighs, ``+P`` on the swing thigh
 ``-P`` on the stance thigh: the generalized force of the potential
 ``-P (thigh_2 - thigh_1)``, so within a step energy minus actuator work is conserved.
 The hip spring (``k_hip``) is a potential like the ankle springs, in every phase.
-The hip flexor burst (``swing_burst``) adds to ``P`` while the swing knee is free
-(``swing`` and its heel-up twin): a torque constant within its phase, so again
+The swing torque (``swing_torque``) adds to ``P`` in phase ``swing`` and its heel-up
+twin (foot 2 in the air, its knee free: from toe-off to knee-strike, or to
+heel-strike where the knee has not locked): constant within its phase, so again
 the force of a potential, and its work is counted with the hip torque's.
 
 While both feet touch the ground (push-off, shank release, heel pivot) only the
@@ -244,15 +245,15 @@ def ankle_potential(q, params, phase, ctx):
 
 def actuator_potential(q, params, phase, ctx):
     """Potential of every actuator in ``phase`` (scalar): the hip torque
-    ``-(g P + b) (thigh_2 - thigh_1)`` (``b`` = ``swing_burst`` in the free-knee
-    swing, else 0), the hold on the hip spring ``-(1 - g) V_hip``
+    ``-(g P + b) (thigh_2 - thigh_1)`` (``b`` = ``swing_torque`` in phase ``swing``
+    and its twin, else 0), the hold on the hip spring ``-(1 - g) V_hip``
     (``g`` = :func:`hip_gain`) and the ankle's push-off and heel-brake torques.
 
     Not stored energy: its force is the actuators', and its decrease over a phase
     is their work (:func:`actuator_work`), not part of the walker's energy.
     """
     g = hip_gain(params, phase)
-    torque = g * params["P"] + jnp.where(ph.FLAT_PHASE[phase] == ph.SWING, params["swing_burst"], 0.0)
+    torque = g * params["P"] + jnp.where(ph.FLAT_PHASE[phase] == ph.SWING, params["swing_torque"], 0.0)
     hip = -torque * (q[geo.THIGH_2] - q[geo.THIGH_1])
     hold = -(1.0 - g) * hip_spring_energy(q, params)
     return hip + hold + ankle_potential(q, params, phase, ctx)

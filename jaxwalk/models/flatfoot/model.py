@@ -34,8 +34,8 @@ from jaxwalk.walker import Walker
 #: These were the defaults until the shoe walker replaced them (docs/model.md,
 #: "Defaults and the paper's walker"); every preset below is absolute over these keys.
 PAPER_PARAMS = {
-    "P": 0.0076, "swing_burst": 0.0, "k_hip": 0.0, "ankle_push": 0.0, "heel_brake": 0.0, "hip_double_support": 1.0,
-    "swing_dorsi": 0.0, "knee_gate": 0.0, "scuff_tol": 0.03, "mu": 1e6, "ankle_rest": 0.0,
+    "P": 0.0076, "swing_torque": 0.0, "k_hip": 0.0, "ankle_push": 0.0, "heel_brake": 0.0,
+    "hip_double_support": 1.0, "swing_dorsi": 0.0, "knee_gate": 0.0, "scuff_tol": 0.03, "mu": 1e6, "ankle_rest": 0.0,
     "ankle_reset": 0.0, "trailing_reset": 1.0,
 }  # fmt: skip
 #: Its gait ``(psi, psi_dot)`` (docs/model.md, "Defaults and the paper's walker": the nominal gait).
@@ -113,7 +113,8 @@ class FlatFootWalker(Walker):
         ParamSpec("ankle_reset", 0.0, "1", "fraction of each leg's shank angle at the step's toe-strike added to ankle_rest (1 with ankle_rest 0: both springs start every step relaxed, their stored energy lost at toe-strike, the trailing one by its share trailing_reset; 0: the rest angle is ankle_rest)", lower=0.0, upper=1.0),
         ParamSpec("trailing_reset", 1.0, "1", "fraction of ankle_reset applied to the trailing foot's spring (0: only the stance spring is relaxed at toe-strike; the trailing spring stays relaxed at ankle_rest and keeps the rest of what it stored in stance for push-off)", lower=0.0, upper=1.0),
         ParamSpec("P", 0.045, "1", "hip torque, + on the swing thigh, - on the stance thigh"),
-        nonnegative("swing_burst", 0.0, "1", "hip flexor torque added to P while the swing knee is free (toe-off to knee-strike; M g L)"),
+        nonnegative("swing_torque", 0.0, "1",
+                    "hip torque added to P in phase swing (foot 2 in the air, knee free; M g L), + on the swing thigh"),
         nonnegative("k_hip", 0.12, "1", "hip spring stiffness between the thighs (M g L per rad), relaxed with the thighs together"),
         nonnegative("ankle_push", 0.09, "1", "push-off torque at the trailing ankle while its foot pivots on its toe (M g L), toe-down on the foot"),
         nonnegative("heel_brake", 0.01, "1", "dorsiflexor torque at the landing ankle while its foot pivots on its heel (M g L), resisting the foot's fall to flat"),

@@ -8,7 +8,7 @@ plus ``ankle_reset`` times the shank's angle at the step's toe-strike; in heel p
 the landing angle ``shank + swing_dorsi``), and the generalized force is
 ``-dV/dq`` with ``d phi/dq`` written out from ``d atan2(w)/dw = (-w_y, w_x)/|w|^2``.
 The hip torque ``P`` acts ``+P`` on the swing thigh, ``-P`` on the stance thigh
-(plus ``swing_burst`` while the swing knee is free: phase ``swing`` or its twin);
+(plus ``swing_torque`` in phase ``swing`` or its twin: foot 2 in the air, knee free);
 the hip spring ``k_hip`` stores ``k_hip/2 (thigh_2 - thigh_1)^2``. While both feet
 touch the ground (foot 2 on its toe or heel) both act at the fraction
 ``g = hip_double_support``: the torque ``g P`` is an actuator, and of the spring's
@@ -158,15 +158,15 @@ def joint_forces(q: np.ndarray, p: Mapping[str, float], phase: int, ctx: dict) -
         force -= _torque(stretch, p, phase) * (drest - dphi)
     spread = q[THIGH_2] - q[THIGH_1]
     g = _hip_gain(p, phase)
-    hip = g * (p["P"] - p["k_hip"] * spread) + _burst(p, phase)
+    hip = g * (p["P"] - p["k_hip"] * spread) + _swing_torque(p, phase)
     force[THIGH_2] += hip
     force[THIGH_1] -= hip
     return force
 
 
-def _burst(p: Mapping[str, float], phase: int) -> float:
-    """The hip flexor burst ``swing_burst``: added to the hip torque while the swing knee is free."""
-    return p["swing_burst"] if leg_2_phase(phase) == SWING else 0.0
+def _swing_torque(p: Mapping[str, float], phase: int) -> float:
+    """``swing_torque``, added to the hip torque in phase ``swing`` and its heel-up twin."""
+    return p["swing_torque"] if leg_2_phase(phase) == SWING else 0.0
 
 
 def _hip_gain(p: Mapping[str, float], phase: int) -> float:
@@ -178,7 +178,7 @@ def hip_work(q_start: np.ndarray, q_end: np.ndarray, p: Mapping[str, float], pha
     """Work of the hip torque and of the hold on the hip spring between two configurations of one phase."""
     g = _hip_gain(p, phase)
     s0, s1 = q_start[THIGH_2] - q_start[THIGH_1], q_end[THIGH_2] - q_end[THIGH_1]
-    return (g * p["P"] + _burst(p, phase)) * (s1 - s0) + (1.0 - g) * 0.5 * p["k_hip"] * (s1**2 - s0**2)
+    return (g * p["P"] + _swing_torque(p, phase)) * (s1 - s0) + (1.0 - g) * 0.5 * p["k_hip"] * (s1**2 - s0**2)
 
 
 def actuator_work(q_start: np.ndarray, q_end: np.ndarray, p: Mapping[str, float], phase: int, ctx: dict) -> float:

@@ -1,0 +1,91 @@
+"""A stable gait beside the heel-rise walker's unstable one at ``k`` 0.29, and
+how far it reaches along ``k`` (docs/model.md, "The heel-rise walker", "A stable
+twin past a fold").
+
+Newton (``jaxwalk.gait.find_gait``) from the unstable gait of the
+``trailing_reset`` 0.5, ``swing_torque`` 0 line of
+``sweeps/flatfoot_heel_rise_swing_torque_k.toml`` at ``k`` 0.29, moved along
+its speed mode (``speed_mode.py``) by each offset in ``OFFSETS``; every distinct
+gait found is then continued along ``k`` both ways (Newton from a secant
+through the last two gaits; a step that fails or jumps is halved, down to
+``STEP_MIN``).
+
+    jaxwalk sweep sweeps/flatfoot_heel_rise_swing_torque_k.toml --out results/human --no-plot --overwrite
+    python results/human/stable_twin.py
+
+Writes ``stable_twin.json`` here: the searches from each offset, and each
+branch's gaits (``k``, ``lambda_max``, Froude number, step length L, period
+sqrt(L/g), fixed point) with the status that ended it on each side.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import jaxwalk  # noqa: F401  (before jax: float64, the caches)
+import jax
+import jax.numpy as jnp
+import numpy as np
+import xarray as xr
+
+import speed_mode as sm  # this folder's script: the model, the line's gaits, the mode
+from jaxwalk.gait import find_gait
+from jaxwalk.status import Status
+
+HERE = Path(__file__).parent
+K0 = 0.29
+OFFSETS = (-0.08, -0.04, -0.02, 0.02, 0.04, 0.08, 0.12, 0.16, 0.24)
+STEP, STEP_MIN, MAX_JUMP = 0.01, 1e-4, 0.05
+SEARCH = jax.jit(lambda v0, p: find_gait(sm.MODEL, p, v0))
+
+
+def _row(k, gait):
+    period, length = float(gait.period), float(gait.step_length)
+    return dict(k=k, lambda_max=float(gait.lambda_max), froude=(length / period) ** 2, step_length=length,
+                period=period, fixed_point=np.asarray(gait.v).tolist())
+
+
+def continue_along_k(params, k0, v0, direction):
+    """Gaits from ``(k0, v0)`` along ``k`` in ``direction`` (+1 or -1), and the status that ended the branch."""
+    k, v, previous, step, rows, ended = k0, v0, None, STEP * direction, [], "OK"
+    while abs(step) >= STEP_MIN:
+        target = k + step
+        guess = v if previous is None else v + (v - previous[1]) * (step / (k - previous[0]))
+        gait = SEARCH(guess, {**params, "k": jnp.asarray(target)})
+        ended = Status(int(gait.status)).name
+        if ended == "OK" and float(jnp.max(jnp.abs(gait.v - v))) < MAX_JUMP:
+            rows.append(_row(target, gait))
+            previous, k, v = (k, v), target, gait.v
+        else:
+            step /= 2.0
+    return rows, ended
+
+
+def main():
+    line = xr.open_zarr(HERE / "flatfoot_heel_rise_swing_torque_k.zarr").sel(trailing_reset=0.5, swing_torque=0.0)
+    params, v = sm.gait(line, K0)
+    _, mode = sm.faster_mode(v, params)
+    searches, branches = [], []
+    for offset in OFFSETS:
+        gait = SEARCH(v + offset * mode, params)
+        searches.append(dict(offset=offset, status=Status(int(gait.status)).name,
+                             **(_row(K0, gait) if int(gait.status) == Status.OK else {})))
+        print(json.dumps(searches[-1]), flush=True)
+        found = int(gait.status) == Status.OK
+        if found and all(np.max(np.abs(np.asarray(gait.v) - b["start"]["fixed_point"])) > 1e-6 for b in branches):
+            branch = {"start": _row(K0, gait)}
+            for side, direction in (("up", 1), ("down", -1)):
+                rows, ended = continue_along_k(params, K0, gait.v, direction)
+                branch[side] = {"gaits": rows, "ended": ended}
+            branches.append(branch)
+    (HERE / "stable_twin.json").write_text(json.dumps({"searches": searches, "branches": branches}, indent=1) + "\n")
+    for b in branches:
+        ks = [r["k"] for r in b["down"]["gaits"] + b["up"]["gaits"]] + [K0]
+        stable = [r["k"] for r in b["down"]["gaits"] + b["up"]["gaits"] + [b["start"]] if r["lambda_max"] < 1]
+        print(f"branch from lambda_max {b['start']['lambda_max']:.4f}: k {min(ks):.4f}-{max(ks):.4f}, "
+              f"stable up to {max(stable) if stable else None}; ended {b['down']['ended']} / {b['up']['ended']}")
+
+
+if __name__ == "__main__":
+    main()
