@@ -104,20 +104,11 @@ def test_ankle_rest_angles_step_matches_the_independent_scipy_walker(changes):
     angles of the step's toe-strike (``ankle_reset``), or 0.3 rad from them, which
     winds the landing spring up at toe-strike: the same work, that included
     (the other two wind nothing up)."""
-    from tests.reference import flatfoot as ref
-
     p, v, _, _, _ = _gait("shoe")
     p = with_params(p, **changes)
-    v1, res = step_fn(v, p)
-    assert int(res.status) == Status.OK
-    v1_ref, info = ref.step_map(np.asarray(v), {k: float(x) for k, x in p.items()})
-    assert info["status"] == "ok"
-    np.testing.assert_allclose(v1_ref, np.asarray(v1), rtol=0.0, atol=1e-8)
-    assert abs(info["time"] - float(res.time)) < 1e-7 and abs(info["work"] - float(res.work)) < 1e-8
+    v1, res, info = _step_against_the_reference(v, p)
     wound = "ankle_rest" in changes and "ankle_reset" in changes  # the landing spring turned past slack
     assert info["reset_work"] > 1e-4 if wound else info["reset_work"] == 0.0, info["reset_work"]
-    names = [ev.GUARD_NAMES[c] for c in ph.decode_history(np.asarray(res.ctx))]
-    assert [name for name, _ in info["events"]] == names
     # The rest angles the step hands on (swap_legs) are those the next step's
     # section point gives (section_to_state): the same walk whether or not it
     # passes through the section.
@@ -131,22 +122,25 @@ def test_swing_torque_step_matches_the_independent_scipy_walker():
     phase swing, and its work): the same step from the shoe gait with and
     without ``swing_torque`` 0.02, the same events, and the same step work,
     which with the torque is larger (it pushes the swing thigh forward)."""
+    p, v, _, _, _ = _gait("shoe")
+    works = [float(_step_against_the_reference(v, with_params(p, swing_torque=value))[1].work) for value in (0.0, 0.02)]
+    assert works[1] - works[0] > 1e-3, works
+
+
+def _step_against_the_reference(v, p):
+    """``(v_next, result, reference info)`` of one step from ``v``, both walkers
+    completing it with the same next point (1e-8), time, work and events."""
     from tests.reference import flatfoot as ref
 
-    p, v, _, _, _ = _gait("shoe")
-    works = []
-    for value in (0.0, 0.02):
-        q = with_params(p, swing_torque=value)
-        v1, res = step_fn(v, q)
-        assert int(res.status) == Status.OK
-        v1_ref, info = ref.step_map(np.asarray(v), {k: float(x) for k, x in q.items()})
-        assert info["status"] == "ok"
-        np.testing.assert_allclose(v1_ref, np.asarray(v1), rtol=0.0, atol=1e-8)
-        assert abs(info["time"] - float(res.time)) < 1e-7 and abs(info["work"] - float(res.work)) < 1e-8
-        names = [ev.GUARD_NAMES[c] for c in ph.decode_history(np.asarray(res.ctx))]
-        assert [name for name, _ in info["events"]] == names
-        works.append(float(res.work))
-    assert works[1] - works[0] > 1e-3, works
+    v1, res = step_fn(v, p)
+    assert int(res.status) == Status.OK
+    v1_ref, info = ref.step_map(np.asarray(v), {k: float(x) for k, x in p.items()})
+    assert info["status"] == "ok"
+    np.testing.assert_allclose(v1_ref, np.asarray(v1), rtol=0.0, atol=1e-8)
+    assert abs(info["time"] - float(res.time)) < 1e-7 and abs(info["work"] - float(res.work)) < 1e-8
+    names = [ev.GUARD_NAMES[c] for c in ph.decode_history(np.asarray(res.ctx))]
+    assert [name for name, _ in info["events"]] == names
+    return v1, res, info
 
 
 def test_the_stance_foot_rolls_at_the_same_instant_in_the_independent_scipy_walker():

@@ -15,7 +15,10 @@ through the last two gaits; a step that fails or jumps is halved, down to
 
 Writes ``stable_twin.json`` here: the searches from each offset, and each
 branch's gaits (``k``, ``lambda_max``, Froude number, step length L, period
-sqrt(L/g), fixed point) with the status that ended it on each side.
+sqrt(L/g), fixed point) with the status that ended it on each side; then
+(``scan``) every other gait at ``k`` >= 0.25 of the sweep's ``trailing_reset``
+0.25 and 0.5 lines without swing torque searched the same way, with each
+other gait found.
 """
 
 from __future__ import annotations
@@ -62,6 +65,29 @@ def continue_along_k(params, k0, v0, direction):
     return rows, ended
 
 
+def scan(ds):
+    """Every gait at ``k`` >= 0.25 of the two lines: ``(trailing_reset, k, lambda_max, [other gaits])``."""
+    rows = []
+    for reset in (0.25, 0.5):
+        line = ds.sel(trailing_reset=reset, swing_torque=0.0)
+        fixed = json.loads(ds.attrs["fixed_parameters"])
+        for k in line.k.values[(line.k.values >= 0.25) & (line.status.values == Status.OK)]:
+            point = line.sel(k=k)
+            params = {**sm.MODEL.default_params(), **fixed, "trailing_reset": reset, "swing_torque": 0.0, "k": float(k)}
+            params = {n: jnp.asarray(x, jnp.float64) for n, x in params.items()}
+            v = jnp.asarray(point.fixed_point.values)
+            _, mode = sm.faster_mode(v, params)
+            others = {}
+            for offset in OFFSETS:
+                gait = SEARCH(v + offset * mode, params)
+                if int(gait.status) == Status.OK and float(jnp.max(jnp.abs(gait.v - v))) > 1e-6:
+                    others[tuple(np.round(np.asarray(gait.v), 8))] = _row(float(k), gait)
+            rows.append(dict(trailing_reset=reset, k=float(k), lambda_max=float(point.lambda_max),
+                             others=list(others.values())))
+            print(json.dumps({a: b for a, b in rows[-1].items() if a != "others"} | {"others": len(others)}), flush=True)
+    return rows
+
+
 def main():
     line = xr.open_zarr(HERE / "flatfoot_heel_rise_swing_torque_k.zarr").sel(trailing_reset=0.5, swing_torque=0.0)
     params, v = sm.gait(line, K0)
@@ -79,7 +105,9 @@ def main():
                 rows, ended = continue_along_k(params, K0, gait.v, direction)
                 branch[side] = {"gaits": rows, "ended": ended}
             branches.append(branch)
-    (HERE / "stable_twin.json").write_text(json.dumps({"searches": searches, "branches": branches}, indent=1) + "\n")
+    scanned = scan(xr.open_zarr(HERE / "flatfoot_heel_rise_swing_torque_k.zarr"))
+    out = {"searches": searches, "branches": branches, "scan": scanned}
+    (HERE / "stable_twin.json").write_text(json.dumps(out, indent=1) + "\n")
     for b in branches:
         ks = [r["k"] for r in b["down"]["gaits"] + b["up"]["gaits"]] + [K0]
         stable = [r["k"] for r in b["down"]["gaits"] + b["up"]["gaits"] + [b["start"]] if r["lambda_max"] < 1]
