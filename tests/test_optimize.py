@@ -137,13 +137,16 @@ class _FakeSensitivity:
         )
 
 
-def test_gait_guess_is_where_each_start_s_first_search_begins(monkeypatch):
+def test_gait_guess_is_where_each_start_s_first_search_begins(monkeypatch, tmp_path):
     """``[starts] gait_guess``: one point for every start, or one per start, is the
     ``v0`` of each start's first gait search in place of the model's initial
     guess (a gait reached by continuation, far from the documented ones, can be
     optimised from), and the resolved config keeps it."""
+    import json
+
     from jaxwalk.models import get_model
     from jaxwalk.optimize.engine import optimise
+    from jaxwalk.optimize.output import run_optimize
 
     seen = []
     fake = _FakeSensitivity(("gamma",), lambda p: p[:, 0] ** 2, lambda p: 2 * p, lambda p: p[:, 0],
@@ -162,6 +165,11 @@ def test_gait_guess_is_where_each_start_s_first_search_begins(monkeypatch):
     optimise(model, per_start.problem, per_start.fixed_per_start(), per_start.starts)
     guess = [np.asarray(model.initial_guess({**per_start.fixed, "gamma": g})) for g in (0.005, 0.009)]
     np.testing.assert_array_equal(seen[0], guess)
+    # What `jaxwalk optimize` and jaxwalk.optimize() run: the guesses reach the engine and the dataset.
+    seen.clear()
+    _, ds = run_optimize(one, tmp_path / "out", plot=False, progress=False)
+    np.testing.assert_array_equal(seen[0], [points[0]] * 2)
+    assert json.loads(ds.attrs["config"])["starts"]["gait_guess"] == [points[0]] * 2
 
 
 @pytest.mark.parametrize("guess, message", [
@@ -170,12 +178,20 @@ def test_gait_guess_is_where_each_start_s_first_search_begins(monkeypatch):
     ('["a", -0.1, -0.1]', "each point must be 3 numbers"),
     ("[nan, -0.1, -0.1]", "each point must be 3 numbers"),
     ("0.2", "each point must be 3 numbers"),
+    ("[true, -0.1, -0.1]", "each point must be 3 numbers"),
+    ("[]", "each point must be 3 numbers"),
+    ("[[[0.2, -0.1, -0.1]]]", "each point must be 3 numbers"),
 ])
 def test_a_bad_gait_guess_is_one_line(guess, message):
     with pytest.raises(ConfigError) as err:
         parse(GOOD + f"gait_guess = {guess}\n")
     text = str(err.value)
     assert message in text and "[starts] gait_guess" in text and "\n" not in text
+
+
+def test_a_misspelt_gait_guess_is_named():
+    with pytest.raises(ConfigError, match=r"unknown key 'gait_gues' \(did you mean 'gait_guess'\?\)"):
+        parse(GOOD + "gait_gues = [0.2, -0.1, -0.1]\n")
 
 
 def _fake(monkeypatch, fake):

@@ -160,6 +160,9 @@ def parse_optimize_config(data: Mapping[str, Any], *, source: str = "<config>", 
     _check_capabilities(problem, model, fail)
     starts_raw = dict(data.get("starts", {})) if isinstance(data.get("starts", {}), Mapping) else data.get("starts")
     guess = starts_raw.pop(GUESS_KEY, None) if isinstance(starts_raw, dict) else None
+    for key in starts_raw if isinstance(starts_raw, dict) else ():
+        if key not in specs and did_you_mean(key, [GUESS_KEY]):
+            raise fail(f"[starts]: unknown key '{key}'{did_you_mean(key, [GUESS_KEY])}")
     starts, start_fixed = _starts(starts_raw, problem, specs, params, model_name, fail)
     guesses = None if guess is None else _guesses(guess, starts.shape[0], len(model.section_names), fail)
     heatmap, continuation = _heatmap(data.get("heatmap", {}), specs, model_name, fail)
@@ -179,12 +182,14 @@ GUESS_KEY = "gait_guess"
 def _guesses(value, n_start: int, n_v: int, fail) -> np.ndarray:
     """``(S, n_v)`` from ``gait_guess``: one point of ``n_v`` numbers for every start, or one per start."""
     where, shape = f"[starts] {GUESS_KEY}", f"{n_v} numbers (the model's section coordinates)"
-    rows = value if isinstance(value, list) and value and all(isinstance(r, list) for r in value) else [value]
+    seq = (list, tuple)
+    rows = value if isinstance(value, seq) and value and all(isinstance(r, seq) for r in value) else [value]
     for row in rows:
-        if not isinstance(row, list) or len(row) != n_v or not all(_number(x) for x in row):
+        if not isinstance(row, seq) or len(row) != n_v or not all(_number(x) for x in row):
             raise fail(f"{where}: each point must be {shape}, got {row!r}")
     if len(rows) not in (1, n_start):
-        raise fail(f"{where}: {len(rows)} points for {n_start} starts; give one point, or one per start")
+        raise fail(f"{where}: {len(rows)} points for {n_start} start{'s' if n_start > 1 else ''}; "
+                   "give one point, or one per start")
     return np.broadcast_to(np.asarray(rows, np.float64), (n_start, n_v)).copy()
 
 

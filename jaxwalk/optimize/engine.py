@@ -323,7 +323,11 @@ def _begin(setup: _Setup, opt, starts: np.ndarray, guesses: np.ndarray | None) -
     names, fixed = setup.problem.names, setup.fixed
     x = np.clip((starts - setup.lo) / setup.width, 0.0, 1.0)
     if guesses is not None:
-        v0 = np.array(guesses, np.float64).reshape(n_start, -1)
+        n_v = len(setup.model.section_names)
+        v0 = np.asarray(guesses, np.float64).reshape(-1, n_v)
+        if v0.shape[0] not in (1, n_start):
+            raise ValueError(f"guesses: {v0.shape[0]} points of {n_v} for {n_start} starts; give one, or one per start")
+        v0 = np.broadcast_to(v0, (n_start, n_v)).copy()
     else:
         v0 = np.stack([np.asarray(setup.model.initial_guess({**{k: v[i] for k, v in fixed.items()}, **dict(zip(names, starts[i]))}))
                        for i in range(n_start)])
