@@ -53,7 +53,10 @@ def gait(line, k):
 def faster_mode(v, params):
     """``(multiplier, eigenvector)``: the largest real multiplier, its eigenvector signed toward a faster start."""
     values, vectors = np.linalg.eig(np.asarray(JACOBIAN(v, params)))
-    i = int(np.argmax(np.where(np.abs(values.imag) < 1e-12, values.real, -np.inf)))
+    real = np.abs(values.imag) < 1e-12
+    if not real.any():
+        raise SystemExit(f"no real multiplier at k = {float(params['k'])}: {values}")
+    i = int(np.argmax(np.where(real, values.real, -np.inf)))
     e = vectors[:, i].real
     return float(values[i].real), e * np.sign(-e[-1])  # psi_dot, the last section coordinate, more negative
 

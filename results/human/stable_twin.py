@@ -16,9 +16,9 @@ through the last two gaits; a step that fails or jumps is halved, down to
 Writes ``stable_twin.json`` here: the searches from each offset, and each
 branch's gaits (``k``, ``lambda_max``, Froude number, step length L, period
 sqrt(L/g), fixed point) with the status that ended it on each side; then
-(``scan``) every other gait at ``k`` >= 0.25 of the sweep's ``trailing_reset``
-0.25 and 0.5 lines without swing torque searched the same way, with each
-other gait found.
+(``scan``) every gait at ``k`` >= 0.25 of the sweep's ``trailing_reset``
+0.25 and 0.5 lines without swing torque (the ``k`` 0.29 one again among
+them) searched the same way, with each other gait found.
 """
 
 from __future__ import annotations
@@ -40,6 +40,7 @@ HERE = Path(__file__).parent
 K0 = 0.29
 OFFSETS = (-0.08, -0.04, -0.02, 0.02, 0.04, 0.08, 0.12, 0.16, 0.24)
 STEP, STEP_MIN, MAX_JUMP = 0.01, 1e-4, 0.05
+K_RANGE = (0.0, 0.75)  # the sweep's k axis reaches 0.75
 SEARCH = jax.jit(lambda v0, p: find_gait(sm.MODEL, p, v0))
 
 
@@ -50,10 +51,16 @@ def _row(k, gait):
 
 
 def continue_along_k(params, k0, v0, direction):
-    """Gaits from ``(k0, v0)`` along ``k`` in ``direction`` (+1 or -1), and the status that ended the branch."""
-    k, v, previous, step, rows, ended = k0, v0, None, STEP * direction, [], "OK"
+    """Gaits from ``(k0, v0)`` along ``k`` in ``direction`` (+1 or -1), and what ended the
+    branch: the status of the last failed search, ``JUMP`` (a gait farther than
+    ``MAX_JUMP`` from the last) or ``K_RANGE`` (the end of the range reached)."""
+    k, v, previous, step, rows, ended = k0, v0, None, STEP * direction, [], "K_RANGE"
     while abs(step) >= STEP_MIN:
         target = k + step
+        if not K_RANGE[0] <= target <= K_RANGE[1]:
+            ended = "K_RANGE"
+            step /= 2.0
+            continue
         guess = v if previous is None else v + (v - previous[1]) * (step / (k - previous[0]))
         gait = SEARCH(guess, {**params, "k": jnp.asarray(target)})
         ended = Status(int(gait.status)).name
@@ -61,6 +68,7 @@ def continue_along_k(params, k0, v0, direction):
             rows.append(_row(target, gait))
             previous, k, v = (k, v), target, gait.v
         else:
+            ended = "JUMP" if ended == "OK" else ended
             step /= 2.0
     return rows, ended
 
