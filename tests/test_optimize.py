@@ -372,21 +372,27 @@ def test_the_background_grid_runs_while_the_optimiser_compiles(monkeypatch, tmp_
 
 def test_a_descent_over_several_parameters_without_a_background_is_drawn_along_its_iterations(monkeypatch, tmp_path):
     """Paths over three optimised parameters cannot be drawn over a map: the
-    figure shows lambda_max against the iteration, with the stability limit."""
+    figure shows lambda_max against the iteration, with the stability limit, and
+    each iteration that lost its gait (no lambda_max) as a cross on the axis."""
     import matplotlib.figure
 
     from jaxwalk.optimize.output import run_optimize
 
     fake = _FakeSensitivity(("gamma", "m_h", "a"), lambda p: (p ** 2).sum(1), lambda p: 2 * p, lambda p: p[:, 0],
-                            lambda p: np.ones_like(p), lambda p: np.zeros(p.shape[0], bool))
+                            lambda p: np.ones_like(p), lambda p: p[:, 1] < 12.0)
     _fake(monkeypatch, fake)
     drawn, savefig = [], matplotlib.figure.Figure.savefig
+
+    def crosses(ax):
+        return sum(len(line.get_xdata()) for line in ax.lines if line.get_marker() == "x")
+
     monkeypatch.setattr(matplotlib.figure.Figure, "savefig", lambda fig, path, **kw: (
-        drawn.append((fig.axes[0].get_xlabel(), fig.axes[0].get_ylabel())), savefig(fig, path, **kw)))
+        drawn.append((fig.axes[0].get_xlabel(), fig.axes[0].get_ylabel(), crosses(fig.axes[0]))), savefig(fig, path, **kw)))
     config = parse(GOOD.replace('"simplest"', '"compass"').replace(
         "bounds = { gamma = [0.004, 0.0145] }", "bounds = { gamma = [0.004, 0.0145], m_h = [5.0, 15.0], a = [0.4, 0.6] }"))
     target, ds = run_optimize(config, tmp_path / "out", plot=True, progress=False)
-    assert drawn == [("iteration", "lambda_max")] and ds.sizes["iteration"] == 6
+    lost = int(((ds.status.values != 0) & (np.arange(6)[:, None] <= ds.ended_at.values)).sum())
+    assert lost > 0 and drawn == [("iteration", "lambda_max", lost)] and ds.sizes["iteration"] == 6
     assert (tmp_path / "out" / "opt.png").stat().st_size > 0
 
 

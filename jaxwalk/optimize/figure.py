@@ -24,14 +24,17 @@ def _start_labels(ds: xr.Dataset, names: list[str], n_start: int) -> list[str]:
     import json
 
     starts = json.loads(ds.attrs["config"]).get("starts", {}) if "config" in ds.attrs else {}
-    varying = [k for k, v in starts.items() if k not in names and isinstance(v, list) and len(set(map(str, v))) > 1]
+    varying = [k for k, v in starts.items()
+               if k not in names and isinstance(v, list) and len(v) == n_start and len(set(map(str, v))) > 1]
     return [", ".join([f"start {s}"] + [f"{k} = {starts[k][s]:g}" for k in varying
                                         if isinstance(starts[k][s], (int, float))]) for s in range(n_start)]
 
 
 def draw_paths(ds: xr.Dataset, target) -> None:
     """Draw every start's path (accepted iterates joined, failed ones as crosses,
-    the best iterate as a dot) over ``heatmap_lambda_max`` (stable < 1; NaN where no gait)."""
+    the best iterate as a dot) over ``heatmap_lambda_max`` (stable < 1; NaN where no gait);
+    with several parameters and no background, ``lambda_max`` along the iterations
+    (a lost gait's iteration as a cross on the axis)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -64,12 +67,17 @@ def draw_paths(ds: xr.Dataset, target) -> None:
         ys = ds["lambda_max"].values
         ax.axhline(1.0, color="0.5", ls="--", lw=1)
         ax.set_xlabel("iteration"), ax.set_ylabel("lambda_max")
+    along_iterations = ax.get_xlabel() == "iteration"
     labels = _start_labels(ds, names, accepted.shape[1])
     for s in range(accepted.shape[1]):
         ok = accepted[:, s]
         line, = ax.plot(xs[ok, s], ys[ok, s], ".-", ms=3, lw=1, label=labels[s])
         failed = ~ok & np.isfinite(xs[:, s]) & np.isfinite(ys[:, s])
         ax.plot(xs[failed, s], ys[failed, s], "x", color=line.get_color(), ms=5)
+        if along_iterations:  # a lost gait has no lambda_max: its iteration marked on the axis
+            lost = ~ok & (np.arange(len(ok)) <= int(ds["ended_at"].values[s])) & ~np.isfinite(ys[:, s])
+            ax.plot(xs[lost, s], np.zeros(int(lost.sum())), "x", color=line.get_color(), ms=5, clip_on=False,
+                    transform=ax.get_xaxis_transform())
         best = int(ds["best_iteration"].values[s]) if "best_iteration" in ds else -1
         if best >= 0:
             ax.plot(xs[best, s], ys[best, s], "o", color=line.get_color(), mec="k", ms=6)
