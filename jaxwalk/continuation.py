@@ -50,6 +50,30 @@ def seed_index(values: np.ndarray, default: float) -> int:
     return int(np.argmin(np.abs(np.asarray(values) - default)))
 
 
+def start_value(model: Walker, axis: str, fixed: Mapping[str, float], values: np.ndarray,
+                guess_at: Mapping[str, float] | None = None) -> float:
+    """Where lines along ``axis`` start (before :func:`seed_index` picks the grid
+    value nearest it): ``guess_at[axis]`` where the user's gait guess says where its
+    gait is (``[analysis] gait_guess_at`` of a sweep), else the model's own
+    :meth:`~jaxwalk.walker.Walker.seed_value`."""
+    if guess_at and axis in guess_at:
+        return float(guess_at[axis])
+    return model.seed_value(axis, fixed, values)
+
+
+def fill_starts(starts: np.ndarray | None, n_lines: int, guess: np.ndarray | None) -> np.ndarray | None:
+    """Start points of ``n_lines`` lines (``(n_lines, n_v)``, NaN rows: none) with the
+    user's ``guess`` (``(n_v,)``) in every row that has none; ``starts`` itself when
+    there is no guess."""
+    if guess is None:
+        return starts
+    guess = np.asarray(guess, np.float64)
+    if starts is None:
+        return np.broadcast_to(guess, (n_lines, guess.shape[-1])).copy()
+    starts = np.asarray(starts, np.float64).reshape(n_lines, -1)
+    return np.where(np.isfinite(starts).all(axis=-1, keepdims=True), starts, guess)
+
+
 def visiting_order(n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
     """Order in which a continuation axis of length ``n`` is visited from ``seed``.
 

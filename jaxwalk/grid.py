@@ -25,7 +25,7 @@ from jaxwalk.analyses.gait import OUTPUTS as GAIT_OUTPUTS
 from jaxwalk.attractor import AttractorOptions
 from jaxwalk.batching import sub_batch_size
 from jaxwalk.batching import Rows, over_rows, run_chunks as _run_chunks
-from jaxwalk.continuation import seed_index
+from jaxwalk.continuation import fill_starts, seed_index, start_value
 from jaxwalk.gait import Gait, NewtonOptions, find_gait
 from jaxwalk.lines import run_lines
 from jaxwalk.parameters import parameter_grid as parameter_grid
@@ -55,6 +55,13 @@ class AnalysisOptions:
             plug-ins without a field here), in any order; by default the one
             that is on by default in a config too, ``failure_cause``
             (:mod:`jaxwalk.analyses.failure`).
+        gait_guess: with continuation, Newton's first start at every line's seed
+            point (``(n_v,)`` section coordinates) in place of the model's
+            :meth:`~jaxwalk.walker.Walker.initial_guess`, where the line has no
+            start of its own (a seed line's gait); ``None``: the model's.
+        gait_guess_at: ``((name, value), ...)``: where the guessed gait is; a
+            line along (or a seed line along) a named axis starts at its grid
+            value nearest there (:func:`jaxwalk.continuation.start_value`).
     """
 
     solver: SolverOptions = SolverOptions()
@@ -64,6 +71,8 @@ class AnalysisOptions:
     attractors: AttractorOptions | None = None
     global_stability: object | None = None
     more: tuple[tuple[str, object], ...] = (("failure_cause", True),)
+    gait_guess: tuple[float, ...] | None = None
+    gait_guess_at: tuple[tuple[str, float], ...] = ()
 
 
 @functools.lru_cache(maxsize=None)
@@ -146,8 +155,8 @@ def analyse_grid(
     along = None if continuation_axis is None else list(grid).index(continuation_axis)
     chunks = chunk_shape(shape, options.chunk_size, along)
     out: dict[str, np.ndarray] = {}
-    if (seed_axis is not None or starts is not None) and continuation_axis is None:
-        raise ValueError("seed lines and start points need a continuation axis")
+    if (seed_axis is not None or starts is not None or options.gait_guess is not None) and continuation_axis is None:
+        raise ValueError("seed lines, start points and a gait guess need a continuation axis")
     if seed_axis is not None:
         from jaxwalk.seedline import seed_lines
 
@@ -195,7 +204,8 @@ def analyse_chunk(
         progress: called with the number of configurations finished after each chunk.
         starts: with continuation only: start points of the lines' seed points,
             shaped like the grid without the continuation axis, plus ``(n_v,)``;
-            NaN where a line has none (it starts from ``model.initial_guess``).
+            NaN where a line has none (it starts from ``options.gait_guess``, else
+            from ``model.initial_guess``).
             ``jaxwalk.seedline`` makes them; a block's are the same slice of
             the whole grid's whoever computes it, so its lines run alike.
 
@@ -220,12 +230,13 @@ def analyse_chunk(
     else:
         k = axes.index(continuation_axis)
         values = np.asarray(grid[continuation_axis], np.float64)
-        seed = seed_index(values, model.seed_value(continuation_axis, fixed, values))
+        seed = seed_index(values, start_value(model, continuation_axis, fixed, values, dict(options.gait_guess_at)))
         moved = {n: np.moveaxis(v, k, -1) for n, v in params.items()}
         moved_shape = next(iter(moved.values())).shape
         rows = {n: v.reshape(-1, len(values)) for n, v in moved.items()}
         if starts is not None:
             starts = np.asarray(starts, np.float64).reshape(-1, len(model.section_names))
+        starts = fill_starts(starts, next(iter(rows.values())).shape[0], options.gait_guess)
         gaits = run_lines(model, rows, values, seed, options.solver, options.newton, options.chunk_size, starts, progress)
 
         def unflatten(x):

@@ -7,7 +7,8 @@ from the model's initial guess. Far
 from them along another axis B (the flat-foot walker's foot length, say) that
 guess misses the gait and the whole line is lost. With ``[analysis] seed_axis
 = "B"`` a *seed line* first runs along B at A's seed value, itself continued
-from B's seed (the B value nearest its seed value) up then down, exactly as
+from B's seed (the B value nearest its seed value; with ``[analysis]
+gait_guess`` from that guess, at ``gait_guess_at`` where it names B) up then down, exactly as
 :func:`jaxwalk.lines.run_lines` walks any line; every A-line then
 starts its seed point from the seed line's gait at its B value (from the
 model's guess where the seed line failed there). With more than two axes
@@ -27,7 +28,7 @@ from typing import Mapping, NamedTuple
 
 import numpy as np
 
-from jaxwalk.continuation import seed_index
+from jaxwalk.continuation import fill_starts, seed_index, start_value
 from jaxwalk.lines import run_lines
 from jaxwalk.parameters import parameter_grid
 from jaxwalk.walker import Walker
@@ -81,7 +82,8 @@ def seed_lines(model: Walker, fixed: Mapping[str, float], grid: Mapping[str, np.
     check_axes(grid, continuation_axis, seed_axis)
     axes = list(grid)
     a_values = np.asarray(grid[continuation_axis], np.float64)
-    a_seed = float(a_values[seed_index(a_values, model.seed_value(continuation_axis, fixed, a_values))])
+    guess_at = dict(options.gait_guess_at)
+    a_seed = float(a_values[seed_index(a_values, start_value(model, continuation_axis, fixed, a_values, guess_at))])
     sub = {name: (np.array([a_seed]) if name == continuation_axis else np.asarray(values, np.float64))
            for name, values in grid.items()}
     params = {n: np.squeeze(v, axes.index(continuation_axis)) for n, v in parameter_grid(model, fixed, sub).items()}
@@ -91,8 +93,9 @@ def seed_lines(model: Walker, fixed: Mapping[str, float], grid: Mapping[str, np.
     moved = {n: np.moveaxis(v, k, -1) for n, v in params.items()}
     moved_shape = next(iter(moved.values())).shape
     rows = {n: v.reshape(-1, len(b_values)) for n, v in moved.items()}
-    seed_b = seed_index(b_values, model.seed_value(seed_axis, fixed, b_values))
-    gaits = run_lines(model, rows, b_values, seed_b, options.solver, options.newton, options.chunk_size)
+    seed_b = seed_index(b_values, start_value(model, seed_axis, fixed, b_values, guess_at))
+    starts = fill_starts(None, next(iter(rows.values())).shape[0], options.gait_guess)
+    gaits = run_lines(model, rows, b_values, seed_b, options.solver, options.newton, options.chunk_size, starts)
 
     def back(x):
         x = np.asarray(x).reshape(moved_shape + x.shape[2:])

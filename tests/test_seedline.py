@@ -16,7 +16,7 @@ from jaxwalk.lines import segment_program
 from jaxwalk.models import get_model
 from jaxwalk.seedline import seed_lines
 from jaxwalk.sweep import loads_config, run_sweep
-from jaxwalk.sweep.config import ConfigError
+from jaxwalk.sweep.config import ConfigError, parse_config
 from jaxwalk.workers import compiled_shapes
 
 MODEL = get_model("compass")
@@ -238,3 +238,84 @@ def test_seed_lines_start_where_the_guess_was_made(monkeypatch):
         S.seed_lines(flatfoot, fixed, {"k": k_values, "P": p_values}, "P", "k", OPTIONS)
     assert seen["P"].tolist() == [p_values[np.argmin(np.abs(p_values - 0.0076))]]
     assert seen["seed"] == int(np.argmin(np.abs(k_values - 0.03)))
+
+
+# ---------------------------------------------------------------- [analysis] gait_guess
+
+GUESSED = CONFIG.replace('seed_axis = "gamma"\n', "") + "gait_guess = GUESS\ngait_guess_at = { m_h = 12.0 }\n"
+
+
+def _guessed(seeded, **fields):
+    return G.AnalysisOptions(**{"gait_guess": tuple(seeded["fixed_point"][2, 2]), "gait_guess_at": (("m_h", 12.0),), **fields})
+
+
+def test_a_gait_guess_starts_the_lines_where_it_says(runs):
+    """The gamma = 0.13 line, lost from the model's guess, found from a guess of its
+    m_h = 12 gait placed there: the seed point is m_h = 12 (Newton starts at its own
+    fixed point: at most one iteration) and the line is the seeded run's gait."""
+    plain, seeded, compiled, _ = runs
+    line = {"gamma": GRID["gamma"][2:], "m_h": GRID["m_h"]}
+    guessed = G.analyse_grid(MODEL, {}, line, "m_h", _guessed(seeded))
+    assert (plain["status"][2] != 0).all() and (guessed["status"] == 0).all()
+    assert guessed["newton_iterations"][0, 2] <= 1 < guessed["newton_iterations"][0, 0]
+    np.testing.assert_allclose(guessed["fixed_point"][0], seeded["fixed_point"][2], atol=1e-8)
+    # A guess that is no gait's: every line fails from it (the model's guess is not used instead).
+    lost = G.analyse_grid(MODEL, {}, GRID, "m_h", G.AnalysisOptions(gait_guess=(0.5, 0.5, 0.5)))
+    assert (lost["status"] != 0).all()
+    assert len(compiled_shapes(_program())) == compiled  # the guess is data: nothing compiled
+
+
+def test_a_gait_guess_starts_the_seed_lines(runs):
+    """With a seed axis, the seed line starts from the guess at the slope it names."""
+    _, seeded, _, _ = runs
+    options = G.AnalysisOptions(gait_guess=tuple(seeded["fixed_point"][2, 1]), gait_guess_at=(("gamma", 0.13),))
+    guessed = G.analyse_grid(MODEL, {}, GRID, "m_h", options, seed_axis="gamma")
+    assert (guessed["status"] == 0).all()
+    np.testing.assert_allclose(guessed["fixed_point"], seeded["fixed_point"], atol=1e-8)
+    seeds = seed_lines(MODEL, {}, GRID, "m_h", "gamma", options)
+    assert seeds.newton_iterations[2] <= 1 < seeds.newton_iterations[0]
+
+
+def test_a_sweep_records_its_gait_guess(runs, tmp_path):
+    """The config keeps the guess (resolved, re-read, the same), the dataset says where
+    its lines started and with what; a config without it keeps its old record."""
+    _, seeded, _, _ = runs
+    v = [float(x) for x in seeded["fixed_point"][2, 2]]
+    config = loads_config(GUESSED.replace("GUESS", repr(v)))
+    assert config.gait_guess == tuple(v) and config.gait_guess_at == {"m_h": 12.0}
+    again = parse_config(json.loads(config.to_json()))
+    assert again.to_dict() == config.to_dict()
+    plain = loads_config(CONFIG.replace('seed_axis = "gamma"\n', ""))
+    assert "gait_guess" not in plain.to_dict()["analysis"] and "gait_guess_at" not in plain.to_dict()["analysis"]
+    ds = _arrays(run_sweep(config, tmp_path, progress=False, plot=False))
+    assert ds.attrs["continuation_start"] == 12.0
+    # Every line starts from the one guess: the gamma = 0.13 line is found, as above.
+    assert (ds["status"].values[2] == 0).all()
+    np.testing.assert_allclose(ds["fixed_point"].values[2], seeded["fixed_point"][2], atol=1e-8)
+    recorded = json.loads(ds.attrs["analysis_options"])
+    assert recorded["gait_guess"] == v and recorded["gait_guess_at"] == [["m_h", 12.0]]
+
+
+@pytest.mark.parametrize(
+    "analysis, fragment",
+    [
+        ('continuation = "m_h"\ngait_guess = [0.2, -0.2]', "gait_guess must be 3 finite numbers (the model's section coordinates), got [0.2, -0.2]"),
+        ('continuation = false\ngait_guess = [0.2, -0.2, 0.1]', "gait_guess needs continuation"),
+        ('continuation = "m_h"\ngait_guess = [0.2, -0.2, 0.1]\ngait_guess_at = { gamma = 0.1 }', "gait_guess_at names 'gamma', which no line follows (lines follow 'm_h')"),
+        ('continuation = "m_h"\ngait_guess_at = { m_h = 10.0 }', "gait_guess_at needs gait_guess"),
+        ('continuation = "m_h"\ngait_guess = true', "gait_guess must be a list of 3 numbers"),
+        ('continuation = "m_h"\ngait_guess = [0.2, -0.2, 0.1]\ngait_guess_at = { m_h = "x" }', "gait_guess_at m_h must be a finite number, got 'x'"),
+    ],
+    ids=["length", "no-continuation", "not-a-line", "at-alone", "true", "at-not-a-number"],
+)
+def test_bad_gait_guess(tmp_path, monkeypatch, capsys, analysis, fragment):
+    text = CONFIG.split("[analysis]")[0] + f"[analysis]\n{analysis}\n"
+    with pytest.raises(ConfigError) as info:
+        loads_config(text, source="t.toml")
+    assert "\n" not in str(info.value) and fragment in str(info.value)
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "sweep.toml").write_text(text)
+    assert cli.main(["sweep", "sweep.toml", "--out", "res"]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and captured.err.count("\n") == 1 and fragment in captured.err
+    assert not (tmp_path / "res").exists()

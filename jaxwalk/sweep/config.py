@@ -51,6 +51,8 @@ class Gait(Table):
     stability: bool = field(True, "true or false")
     continuation: bool | str = field(True, "a grid axis name or false")
     seed_axis: bool | str = field(False, "a grid axis name or false")
+    gait_guess: bool | list[Any] = field(False, "a list of the model's section coordinates, or false")
+    gait_guess_at: dict[str, Any] = field({}, "a table {grid axis = value} of where the guessed gait is")
 
 
 #: Solver settings passed through to the analysis when set (absent: its defaults).
@@ -103,6 +105,12 @@ class SweepConfig:
         seed_axis: another axis along which seed lines give every continuation
             line its start (:mod:`jaxwalk.seedline`), or ``None`` (each line
             starts from the model's initial guess).
+        gait_guess: with continuation, Newton's first start at the lines' (or the
+            seed lines') seed points, ``(n_v,)`` section coordinates, in place of
+            the model's initial guess; ``None``: the model's.
+        gait_guess_at: ``{axis: value}``, where the guessed gait is: lines along
+            a named axis start at its grid value nearest there (else where the
+            model's guess was made, :meth:`jaxwalk.walker.Walker.seed_value`).
         solver: the solver settings of ``[analysis]`` that were given.
         analyses: the resolved settings of the analyses beside the gait that are
             on, by name (:mod:`jaxwalk.analyses`); each is also an attribute,
@@ -124,6 +132,8 @@ class SweepConfig:
     stability: bool = True
     continuation: str | None = None
     seed_axis: str | None = None
+    gait_guess: tuple[float, ...] | None = None
+    gait_guess_at: dict[str, float] = dataclasses.field(default_factory=dict)
     solver: dict[str, float | int] = dataclasses.field(default_factory=dict)
     analyses: dict[str, Any] = dataclasses.field(default_factory=dict)
     source: str = "<config>"
@@ -159,8 +169,9 @@ class SweepConfig:
         """The resolved config, itself a valid config (TOML/JSON-ready).
 
         ``params`` holds every fixed value, defaults included; ``continuation`` is
-        the axis used, or ``False``; ``seed_axis`` appears only when set (so
-        configs without it keep their fingerprint); then each analysis's
+        the axis used, or ``False``; ``seed_axis``, ``gait_guess`` and
+        ``gait_guess_at`` appear only when set (so configs without them keep
+        their fingerprint); then each analysis's
         entries (:meth:`jaxwalk.analyses.base.Analysis.to_dict`: ``h_max`` the
         step-down settings with their defaults, or ``False``; the others only when on).
         """
@@ -176,6 +187,8 @@ class SweepConfig:
                 "stability": self.stability,
                 "continuation": self.continuation if self.continuation is not None else False,
                 **({"seed_axis": self.seed_axis} if self.seed_axis is not None else {}),
+                **({"gait_guess": list(self.gait_guess)} if self.gait_guess is not None else {}),
+                **({"gait_guess_at": dict(self.gait_guess_at)} if self.gait_guess_at else {}),
                 **entries,
                 **self.solver,
             },
@@ -231,7 +244,8 @@ def parse_config(
         axis: check_axis("[grid]", axis, spec, specs, params, model_name, fail) for axis, spec in axes_raw.items()
     }
     table = data.get("analysis", {})
-    stability, continuation, seed_axis, solver = _analysis(table, list(axis_specs), fail)
+    gait, continuation, seed_axis, solver = _analysis(table, list(axis_specs), fail)
+    guess, guess_at = _gait_guess(gait, continuation, seed_axis, len(model.section_names), fail)
     settings = _analyses(table, continuation, model, fail)
     check_supported(model, _requested(settings), fail)  # the capabilities they need (jaxwalk.walker)
     _check_size(axis_specs, len(model.section_names), max_points, fail, settings)
@@ -245,9 +259,11 @@ def parse_config(
         params=params,
         fixed={p: float(v) for p, v in fixed.items()},
         axes=axes,
-        stability=stability,
+        stability=gait.stability,
         continuation=continuation,
         seed_axis=seed_axis,
+        gait_guess=guess,
+        gait_guess_at=guess_at,
         solver=solver,
         analyses=settings,
         source=source,
@@ -280,7 +296,7 @@ def _check_size(axis_specs, n_v, max_points, fail, settings: Mapping[str, Any]) 
         )
 
 
-def _analysis(table, names, fail) -> tuple[bool, str | None, str | None, dict[str, float | int]]:
+def _analysis(table, names, fail) -> tuple[Gait, str | None, str | None, dict[str, float | int]]:
     # [analysis] is shared: the gait's, the solver's and every plug-in's Table
     # each pick their own keys from it (Table.pick ignores the others), so a key
     # that none of them declares is refused here, against their union.
@@ -296,7 +312,36 @@ def _analysis(table, names, fail) -> tuple[bool, str | None, str | None, dict[st
     elif continuation not in names:
         raise fail(f"[analysis]: continuation = '{continuation}' is not a grid axis (axes: {', '.join(names)})")
     seed_axis = _seed_axis(gait.seed_axis, continuation, names, fail)
-    return gait.stability, continuation, seed_axis, Solver.settings(table, fail)
+    return gait, continuation, seed_axis, Solver.settings(table, fail)
+
+
+def _gait_guess(gait: Gait, continuation, seed_axis, n_v: int, fail) -> tuple[tuple[float, ...] | None, dict[str, float]]:
+    """``[analysis] gait_guess`` (``n_v`` finite numbers, or false) and ``gait_guess_at``
+    (grid axes the lines follow, each to a finite number); both need continuation."""
+    where = "[analysis]"
+    if gait.gait_guess is False:
+        if gait.gait_guess_at:
+            raise fail(f"{where}: gait_guess_at needs gait_guess (the section point whose gait it places)")
+        return None, {}
+    if gait.gait_guess is True:  # the shape allows a boolean; only false means something
+        raise fail(f"{where}: gait_guess must be a list of {n_v} numbers (the model's section coordinates) or false, got true")
+    values = gait.gait_guess
+    if len(values) != n_v or not all(_finite(x) for x in values):
+        raise fail(f"{where}: gait_guess must be {n_v} finite numbers (the model's section coordinates), got {values!r}")
+    if continuation is None:
+        raise fail(f"{where}: gait_guess needs continuation (the lines start from it; continuation is off)")
+    lines = [continuation] + ([seed_axis] if seed_axis is not None else [])
+    for axis, value in gait.gait_guess_at.items():
+        if axis not in lines:
+            raise fail(f"{where}: gait_guess_at names '{axis}', which no line follows "
+                       f"(lines follow {' and '.join(repr(a) for a in lines)})")
+        if not _finite(value):
+            raise fail(f"{where}: gait_guess_at {axis} must be a finite number, got {value!r}")
+    return tuple(float(x) for x in values), {a: float(v) for a, v in gait.gait_guess_at.items()}
+
+
+def _finite(value) -> bool:
+    return not isinstance(value, bool) and isinstance(value, (int, float)) and math.isfinite(value)
 
 
 def _analyses(table, continuation, model, fail) -> dict[str, Any]:

@@ -131,10 +131,13 @@ def coordinates(config: SweepConfig, model: Walker) -> dict[str, tuple]:
 
 
 def _continuation_start(config: SweepConfig, model: Walker) -> float | str:
-    """The continuation axis's value where every line starts (``Walker.seed_value``), or ``"none"``."""
+    """The continuation axis's value where every line starts (``[analysis] gait_guess_at``
+    where it names the axis, else ``Walker.seed_value``), or ``"none"``."""
     if config.continuation is None:
         return "none"
-    return model.seed_value(config.continuation, config.fixed, config.grid[config.continuation])
+    from jaxwalk.continuation import start_value
+
+    return start_value(model, config.continuation, config.fixed, config.grid[config.continuation], config.gait_guess_at)
 
 
 def dataset_attributes(config: SweepConfig, model: Walker, *, command: str | None, created: _dt.datetime,

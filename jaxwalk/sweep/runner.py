@@ -268,7 +268,9 @@ def analysis_options(config: SweepConfig):
             fields[analysis.options_field] = grid_options
         else:
             more.append((analysis.name, grid_options))
-    return dataclasses.replace(base, solver=solver, newton=newton, **fields, more=tuple(more))
+    guess = {} if config.gait_guess is None else {
+        "gait_guess": tuple(config.gait_guess), "gait_guess_at": tuple(sorted(config.gait_guess_at.items()))}
+    return dataclasses.replace(base, solver=solver, newton=newton, **fields, more=tuple(more), **guess)
 
 
 def _as_attribute(options, model) -> dict:
@@ -282,6 +284,9 @@ def _as_attribute(options, model) -> dict:
     if hasattr(options, "solver"):  # a solver object by name, not by its fields
         record["solver"] = options.solver.as_record(model)
     record.update(dict(record.pop("more", ())))
+    for key in ("gait_guess", "gait_guess_at"):  # only when given, so earlier sweeps' records stand
+        if not record.get(key):
+            record.pop(key, None)
     return record
 
 
