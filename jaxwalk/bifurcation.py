@@ -83,8 +83,9 @@ KIND_MEANINGS = {
     Kind.NEIMARK_SACKER: "Neimark-Sacker: a complex pair of multipliers through the unit circle",
     Kind.GRAZING: ("grazing: the gait is lost where a step starts to fail at a guard or an impact's check "
                    "(scuffing, a fall, a slip, a pulling contact, ...)"),
-    Kind.LOST: ("the gait is lost (Newton fails beyond) with no multiplier near +1 and no guard failing the step "
-                "(beyond: no convergence, a time limit, the solver, too many events, a non-finite state)"),
+    Kind.LOST: ("the gait is lost (Newton from it fails beyond) with no multiplier near +1 and no guard failing the "
+                "step (beyond: no convergence, a time limit, the solver, too many events, a non-finite state, or "
+                "not_located: Newton converged to another gait)"),
     Kind.BRANCH_POINT: "branch point: a real multiplier through +1 where the branch does not turn (branches cross)",
     Kind.BORDER_COLLISION: ("border collision: the gait goes on but its step's event sequence changes (checked: the "
                             "logged sequences differ on the two sides, and re-solved there from each side's gait, "

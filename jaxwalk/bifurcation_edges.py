@@ -17,6 +17,14 @@ from jaxwalk.status import Status
 
 #: Steps in which :func:`approach` follows a cycle to where a direct solve failed.
 APPROACH_STEPS = 4
+#: A cycle solved at ``at`` from the one found at ``x`` is taken for the same cycle
+#: only if it moved at most this many times what the line's slope there allows
+#: (:func:`same_cycle`); farther, Newton went to another gait.
+JUMP_FACTOR = 4.0
+#: ... plus this (section units): Newton's own tolerance is 1e-8.
+MIN_MOVE = 1e-6
+#: Times :func:`approach` halves a step whose cycle jumped before it gives up.
+JUMP_HALVINGS = 8
 
 
 def shrink_edges(solve, rows, x: np.ndarray, status, v, multipliers, sequences, tol: float, rounds):
@@ -39,6 +47,13 @@ def shrink_edges(solve, rows, x: np.ndarray, status, v, multipliers, sequences, 
     line's last point, or onto a grid point that has a gait, there is none
     (the grid's own brackets and edges take the line on from there).
 
+    A solve may converge to another gait (the heel-rise walker's stable and
+    unstable twins lie 0.08 apart at one ``k``): a cycle found farther from the
+    last one than the line's slope allows (:func:`same_cycle`) is not taken;
+    that solve counts as failed with ``NOT_LOCATED`` (the cycle was not
+    followed there), and the cycle is followed towards it in steps as after any
+    failure, so the edge ends where the line's own cycle is lost.
+
     Returns ``(edges, segments)``. ``edges``: one dict per edge still inside
     its line: ``parameter`` (the bracket's midpoint), ``line``, ``v``,
     ``multipliers`` and ``sequences`` of the last cycle found, ``beyond`` (the
@@ -55,6 +70,12 @@ def shrink_edges(solve, rows, x: np.ndarray, status, v, multipliers, sequences, 
         rounds.edges_done()
         return [], []
     e = _Edges.start(rows, x, status, v, multipliers, sequences)
+
+    def walk(at_, which, guess, x_from):  # a solve whose cycle jumped to another gait has failed
+        st_, v_, mu_, s_ = solve(at_, e.line[which], e.ok_i[which], guess)
+        jumped = (st_ == Status.OK) & ~same_cycle(v_, guess, at_, x_from, e.slope[which])
+        return np.where(jumped, np.int8(Status.NOT_LOCATED), st_).astype(st_.dtype), v_, mu_, s_
+
     while True:
         narrow = np.abs(e.bad - e.good) <= 2 * tol
         probe = narrow & e.untested & ~e.ended
@@ -63,9 +84,8 @@ def shrink_edges(solve, rows, x: np.ndarray, status, v, multipliers, sequences, 
             break
         rounds.edge_round()
         at = np.where(probe, e.bad, 0.5 * (e.good + e.bad))[idx]
-        st, v_at, mu_at, s_at = solve(at, e.line[idx], e.ok_i[idx], e.v_good[idx])
+        st, v_at, mu_at, s_at = walk(at, idx, e.v_good[idx], e.good[idx])
         lost = np.flatnonzero(st != Status.OK)
-        walk = lambda at_, which, guess: solve(at_, e.line[which], e.ok_i[which], guess)
         reached, v_r, mu_r, s_r, failed, why = approach(walk, idx[lost], e.good[idx[lost]], at[lost], e.v_good[idx[lost]],
                                                         e.mu_good[idx[lost]], e.s_good[idx[lost]])
         found = st == Status.OK
@@ -117,6 +137,7 @@ class _Edges:
     anchor: list
     crossed: list
     grid: tuple  # the grid's (v, multipliers, sequences)
+    slope: np.ndarray  # the cycle's largest |dv/dx| seen near the edge (same_cycle)
 
     @classmethod
     def start(cls, rows, x, status, v, multipliers, sequences) -> "_Edges":
@@ -125,10 +146,13 @@ class _Edges:
         anchor = [{"x": x[l_, i_], "v": v[l_, i_], "mu": mu[l_, i_], "s": seq[l_, i_]} for l_, i_ in zip(line, ok_i)]
         return cls(line, ok_i, bad_i, x, status, x[line, ok_i].copy(), x[line, bad_i].copy(), v[line, ok_i].copy(),
                    mu[line, ok_i].copy(), seq[line, ok_i].copy(), status[line, bad_i].astype(np.int8),
-                   np.ones(len(rows), bool), np.zeros(len(rows), bool), anchor, [], (v, mu, seq))
+                   np.ones(len(rows), bool), np.zeros(len(rows), bool), anchor, [], (v, mu, seq),
+                   grid_slope(x, status, v, line, ok_i, bad_i))
 
     def found_at(self, r, at, v, mu, s, probed) -> None:
         """The cycle was found at ``at``; a probed grid point moves the edge on one interval."""
+        moved = np.max(np.abs(v - self.v_good[r]), axis=-1) / np.maximum(np.abs(at - self.good[r]), 1e-300)
+        self.slope[r] = np.maximum(self.slope[r], moved)  # steeper towards a fold
         self.good[r], self.v_good[r], self.mu_good[r], self.s_good[r] = at, v, mu, s
         for j in np.flatnonzero(probed):  # the grid point (one the line lost) is the new anchor; the stretch to it
             row = r[j]
@@ -154,11 +178,37 @@ class _Edges:
         self.bad[r], self.beyond[r], self.untested[r] = failed, why, False
 
 
+def grid_slope(x, status, v, line, ok_i, bad_i) -> np.ndarray:
+    """``(edges,)`` the largest ``|dv/dx|`` between each edge's found grid gait and the
+    grid gait next to it on the other side (``inf`` where there is none: nothing
+    to judge a jump by)."""
+    inner = ok_i - np.sign(bad_i - ok_i)
+    inside = (inner >= 0) & (inner < x.shape[1])
+    inner = np.clip(inner, 0, x.shape[1] - 1)
+    known = inside & (status[line, inner] == Status.OK)
+    dx = np.abs(x[line, ok_i] - x[line, inner])
+    dv = np.max(np.abs(v[line, ok_i] - v[line, inner]), axis=-1)
+    return np.where(known & (dx > 0), dv / np.where(dx > 0, dx, 1.0), np.inf)
+
+
+def same_cycle(v_at, v_from, at, x_from, slope) -> np.ndarray:
+    """Whether cycles ``v_at`` (solved at ``at``) are the cycles ``v_from`` (at ``x_from``)
+    followed: they moved at most :data:`JUMP_FACTOR` times ``slope |at - x_from|``
+    (plus :data:`MIN_MOVE`), in the largest section coordinate."""
+    move = np.max(np.abs(np.asarray(v_at) - np.asarray(v_from)), axis=-1)
+    bound = JUMP_FACTOR * np.asarray(slope) * np.abs(np.asarray(at) - np.asarray(x_from)) + MIN_MOVE
+    return ~(move > bound)  # a NaN cycle (a failed solve) is judged by its status, not here
+
+
 def approach(solve, which: np.ndarray, good: np.ndarray, target: np.ndarray, v_good: np.ndarray, mu_good: np.ndarray,
              s_good: np.ndarray):
     """Follow the cycles of rows ``which`` from ``good`` towards ``target`` in
     :data:`APPROACH_STEPS` equal steps, each solve from the last found cycle
-    (``solve(at, which, guess)``).
+    (``solve(at, which, guess, x_guess)``, ``x_guess`` where that cycle was found).
+    A step whose cycle jumped to another gait (status ``NOT_LOCATED`` from
+    :func:`shrink_edges`'s solve) is tried again at half its length, at most
+    :data:`JUMP_HALVINGS` times: a jump depends on how far the start was, a
+    guard's failure on the point.
 
     Returns ``(reached, v_reached, mu_reached, s_reached, failed, status)`` per
     row: the last value where the cycle was found, its point, multipliers and
@@ -168,16 +218,22 @@ def approach(solve, which: np.ndarray, good: np.ndarray, target: np.ndarray, v_g
     reached, v_reached, mu_reached, s_reached = good.copy(), v_good.copy(), mu_good.copy(), s_good.copy()
     failed = target.copy()
     why = np.full(len(which), Status.NO_CONVERGENCE, np.int8)
+    step = (target - good) / APPROACH_STEPS
+    halvings = np.zeros(len(which), int)
     going = np.ones(len(which), bool)
-    for j in range(1, APPROACH_STEPS + 1):
+    while going.any():
         idx = np.flatnonzero(going)
-        if idx.size == 0:
-            break
-        at = good[idx] + (target[idx] - good[idx]) * j / APPROACH_STEPS
-        st, v_at, mu_at, s_at = solve(at, which[idx], v_reached[idx])
+        last = np.abs(target[idx] - reached[idx]) <= np.abs(step[idx]) * (1 + 1e-12)
+        at = np.where(last, target[idx], reached[idx] + step[idx])
+        st, v_at, mu_at, s_at = solve(at, which[idx], v_reached[idx], reached[idx])
         ok = st == Status.OK
         reached[idx[ok]], v_reached[idx[ok]], mu_reached[idx[ok]], s_reached[idx[ok]] = at[ok], v_at[ok], mu_at[ok], s_at[ok]
-        failed[idx[~ok]], why[idx[~ok]] = at[~ok], st[~ok]
-        going[idx[~ok]] = False
-    failed[going] = np.nan  # every step found, the target too: no failure on this side
+        going[idx[ok & last]] = False
+        retry = ~ok & (st == Status.NOT_LOCATED) & (halvings[idx] < JUMP_HALVINGS)
+        step[idx[retry]] *= 0.5
+        halvings[idx[retry]] += 1
+        stop = ~ok & ~retry
+        failed[idx[stop]], why[idx[stop]] = at[stop], st[stop]
+        going[idx[stop]] = False
+    failed[~np.isnan(failed) & (reached == target)] = np.nan  # every step found, the target too
     return reached, v_reached, mu_reached, s_reached, failed, why

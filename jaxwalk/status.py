@@ -82,8 +82,9 @@ STATUS_MEANINGS: dict[Status, str] = {
         "flat foot below the ground); its walk is not read, and it is left out of the basin's counts"
     ),
     Status.NOT_LOCATED: ("not located: a bracket (a bifurcation, a border collision) was not narrowed to its "
-                         "tolerance, out of iterations or with a trial gait on a third event sequence, or a "
-                         "continuation step was refused for a tangent that turned too far; Newton was not the limit"),
+                         "tolerance, out of iterations or with a trial gait on a third event sequence, a "
+                         "continuation step was refused for a tangent that turned too far, or beyond an edge "
+                         "Newton started from the line's gait converged to another gait; Newton was not the limit"),
     Status.IN_PROGRESS: "internal: step in progress",
 }
 

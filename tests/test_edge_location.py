@@ -84,3 +84,47 @@ def test_a_cycle_followed_past_the_line_end_has_no_edge(monkeypatch):
     bar = _Bar()
     found = locate(get_model("simplest"), {"gamma": x}, "gamma", status, v, np.full((1, 3, 2), np.nan, np.complex128), progress=bar)
     assert len(found.kind) == 0 and bar.n == bar.total
+
+
+#: A second gait beside the line's: it exists on [OTHER_LO, OTHER_HI], which runs past the
+#: line's EDGE, and Newton lands on it from starts farther than NEAR from the target
+#: (with ``beyond = "other"``, from any start beyond EDGE).
+OTHER_LO, OTHER_HI, NEAR = 0.55, 0.85, 0.02
+
+
+def _two_gaits(beyond: str):
+    def evaluate(model, k, solver, newton, params, v0):
+        x, start = np.asarray(params["gamma"], np.float64), np.asarray(v0)[:, 0]
+        gap = np.abs(x - start)
+        near = (gap <= NEAR) & ((x < EDGE) | (beyond == "scuff"))
+        line = near & (x < EDGE)
+        other = ~near & (x >= OTHER_LO) & (x <= OTHER_HI) & (gap <= REACH)
+        line |= ~near & ~other & (x < EDGE) & (gap <= REACH)
+        status = np.where(line | other, Status.OK, np.where(x >= EDGE, Status.SCUFFING, Status.NO_CONVERGENCE))
+        v = np.stack([x, np.where(other, 0.5, 0.0)], axis=1)
+        mu = np.where(other[:, None], np.array([1.3, 0.1]), np.array([0.5, 0.1])).astype(np.complex128)
+        return status.astype(np.int8), v, mu, np.zeros((len(x), k), np.int64)
+
+    return evaluate
+
+
+@pytest.mark.parametrize("beyond", ["scuff", "other"])
+def test_an_edge_is_the_lines_own_gaits_not_a_gait_newton_jumped_to(monkeypatch, beyond):
+    """Bisecting from the line's last gait, Newton's far starts land on a second gait
+    that lives on past the line's edge (the heel-rise walker's stable twin and its
+    unstable one, 0.08 apart). Taken for the line's, it would move the edge to the
+    other gait's end (0.85) with its multiplier 1.3. A cycle that moved farther
+    than the line's slope allows is not followed: the edge is the line's (0.7),
+    its gait and multipliers the line's. Its kind names only what was seen beyond:
+    grazing where the line's own cycle scuffs there; where every start beyond
+    lands on the other gait, the cause is not known (``lost``, ``not_located``)."""
+    monkeypatch.setattr(bifurcation, "_evaluate", _two_gaits(beyond))
+    x = np.array([[0.4, 0.5, 1.0]])
+    status = np.array([[Status.OK, Status.OK, Status.SCUFFING]], np.int8)
+    v = np.array([[[0.4, 0.0], [0.5, 0.0], [np.nan, np.nan]]])
+    mu = np.tile(np.array([0.5, 0.1], np.complex128), (1, 3, 1))
+    found = locate(get_model("simplest"), {"gamma": x}, "gamma", status, v, mu, options=BifurcationOptions(tol=1e-6), progress=_Bar())
+    expected = (Kind.GRAZING, Status.SCUFFING) if beyond == "scuff" else (Kind.LOST, Status.NOT_LOCATED)
+    assert found.kind.tolist() == [expected[0]] and found.beyond.tolist() == [expected[1]]
+    assert abs(found.parameter[0] - EDGE) <= 1e-6
+    assert found.v[0, 1] == 0.0 and found.multipliers[0, 0].real == 0.5

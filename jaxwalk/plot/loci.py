@@ -42,7 +42,7 @@ STYLES: dict[str, tuple[object, str, str]] = {
     "flip": ("--", "s", "flip (multiplier -1)"),
     "neimark_sacker": ("-.", "D", "Neimark-Sacker (|complex pair| = 1)"),
     "grazing": (":", "^", "grazing (a step starts to fail)"),
-    "lost": (":", "x", "gait lost (no fixed point beyond)"),
+    "lost": (":", "x", "gait lost (cause unknown: no guard failed)"),
     "branch_point": ("", "P", "branch point (multiplier +1)"),
     "border_collision": ((0, (4, 1, 1, 1, 1, 1)), "v", "border collision (event order changes)"),  # dash-dot-dot
     "jump": ("", "*", "multipliers jump (no bifurcation)"),
