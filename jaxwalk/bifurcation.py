@@ -325,7 +325,8 @@ def locate(
         elif ok_a != ok_b:
             edge_rows.append((line, i, i + 1) if ok_a else (line, i + 1, i))  # (line, found, lost)
     rounds = _Rounds(progress, smooth or changes or edge_rows, edge_rows, changes, x, options)
-    edges, segments = shrink_edges(solve, edge_rows, x, status, v, multipliers, sequences, options.tol, rounds)
+    edges, segments = shrink_edges(solve, edge_rows, x, status, v, multipliers, sequences, options.tol, rounds,
+                                   options.same_gait)
     edges = [_edge_row(e, options) for e in edges]
     seen = set()
     for line, i, a, b, edge in segments:  # stretches the grid does not bracket: more to locate there

@@ -17,17 +17,20 @@ from jaxwalk.status import Status
 
 #: Steps in which :func:`approach` follows a cycle to where a direct solve failed.
 APPROACH_STEPS = 4
-#: A cycle solved at ``at`` from the one found at ``x`` is taken for the same cycle
-#: only if it moved at most this many times what the line's slope there allows
-#: (:func:`same_cycle`); farther, Newton went to another gait.
+#: A cycle solved at ``at`` from the one found at ``x`` that moved more than this
+#: many times what the line's slope there allows (plus :data:`MIN_MOVE`) is
+#: suspected of being another gait's, and checked (:meth:`_Edges.followed`).
 JUMP_FACTOR = 4.0
 #: ... plus this (section units): Newton's own tolerance is 1e-8.
 MIN_MOVE = 1e-6
 #: Times :func:`approach` halves a step whose cycle jumped before it gives up.
 JUMP_HALVINGS = 8
+#: Most solves one :func:`approach` makes (each a batched Newton call).
+APPROACH_SOLVES = 32
 
 
-def shrink_edges(solve, rows, x: np.ndarray, status, v, multipliers, sequences, tol: float, rounds):
+def shrink_edges(solve, rows, x: np.ndarray, status, v, multipliers, sequences, tol: float, rounds,
+                 same_gait: float = 1e-4):
     """Bisection on "the cycle is followed there" at each edge of a line's gaits.
 
     ``rows``: ``(line, found, lost)`` grid indices of each edge; ``x`` the
@@ -48,11 +51,14 @@ def shrink_edges(solve, rows, x: np.ndarray, status, v, multipliers, sequences, 
     (the grid's own brackets and edges take the line on from there).
 
     A solve may converge to another gait (the heel-rise walker's stable and
-    unstable twins lie 0.08 apart at one ``k``): a cycle found farther from the
-    last one than the line's slope allows (:func:`same_cycle`) is not taken;
-    that solve counts as failed with ``NOT_LOCATED`` (the cycle was not
-    followed there), and the cycle is followed towards it in steps as after any
-    failure, so the edge ends where the line's own cycle is lost.
+    unstable twins lie 0.08 apart at one ``k``). A cycle that moved farther
+    from the last one than the line's slope allows is solved back where the
+    last one was found, from itself; unless that returns to the last cycle
+    (within ``same_gait``), it is another gait's (:meth:`_Edges.followed`):
+    the solve counts as failed with ``NOT_LOCATED``, and the cycle is followed
+    towards it in shorter steps, so the edge ends where the line's own cycle is
+    lost. Near a fold the cycle moves faster than the grid's slope, and the
+    solve back is what tells it from a jump.
 
     Returns ``(edges, segments)``. ``edges``: one dict per edge still inside
     its line: ``parameter`` (the bracket's midpoint), ``line``, ``v``,
@@ -69,13 +75,8 @@ def shrink_edges(solve, rows, x: np.ndarray, status, v, multipliers, sequences, 
     if not rows:
         rounds.edges_done()
         return [], []
-    e = _Edges.start(rows, x, status, v, multipliers, sequences)
-
-    def walk(at_, which, guess, x_from):  # a solve whose cycle jumped to another gait has failed
-        st_, v_, mu_, s_ = solve(at_, e.line[which], e.ok_i[which], guess)
-        jumped = (st_ == Status.OK) & ~same_cycle(v_, guess, at_, x_from, e.slope[which])
-        return np.where(jumped, np.int8(Status.NOT_LOCATED), st_).astype(st_.dtype), v_, mu_, s_
-
+    e = _Edges.start(rows, x, status, v, multipliers, sequences, same_gait)
+    walk = lambda at_, which, guess, x_from: e.followed(solve, at_, which, guess, x_from)  # noqa: E731
     while True:
         narrow = np.abs(e.bad - e.good) <= 2 * tol
         probe = narrow & e.untested & ~e.ended
@@ -137,17 +138,33 @@ class _Edges:
     anchor: list
     crossed: list
     grid: tuple  # the grid's (v, multipliers, sequences)
-    slope: np.ndarray  # the cycle's largest |dv/dx| seen near the edge (same_cycle)
+    slope: np.ndarray  # the cycle's largest |dv/dx| seen near the edge (NaN: not known)
+    same_gait: float
 
     @classmethod
-    def start(cls, rows, x, status, v, multipliers, sequences) -> "_Edges":
+    def start(cls, rows, x, status, v, multipliers, sequences, same_gait: float) -> "_Edges":
         line, ok_i, bad_i = (np.array([r[k] for r in rows]) for k in range(3))
         mu, seq = np.asarray(multipliers), np.asarray(sequences)
         anchor = [{"x": x[l_, i_], "v": v[l_, i_], "mu": mu[l_, i_], "s": seq[l_, i_]} for l_, i_ in zip(line, ok_i)]
         return cls(line, ok_i, bad_i, x, status, x[line, ok_i].copy(), x[line, bad_i].copy(), v[line, ok_i].copy(),
                    mu[line, ok_i].copy(), seq[line, ok_i].copy(), status[line, bad_i].astype(np.int8),
                    np.ones(len(rows), bool), np.zeros(len(rows), bool), anchor, [], (v, mu, seq),
-                   grid_slope(x, status, v, line, ok_i, bad_i))
+                   grid_slope(x, status, v, line, ok_i, bad_i), same_gait)
+
+    def followed(self, solve, at, which, guess, x_from):
+        """``solve`` at ``at`` for edge rows ``which`` from cycles ``guess`` found at
+        ``x_from``, with ``NOT_LOCATED`` where the cycle found is another gait's: it
+        moved more than :func:`within_slope` allows, and solved back at ``x_from``
+        from itself it does not return to ``guess`` (within ``same_gait``)."""
+        st, v, mu, s = solve(at, self.line[which], self.ok_i[which], guess)
+        suspect = np.flatnonzero((st == Status.OK) & ~within_slope(v, guess, at, x_from, self.slope[which]))
+        if suspect.size:
+            rows = which[suspect]
+            st_back, v_back, _, _ = solve(x_from[suspect], self.line[rows], self.ok_i[rows], v[suspect])
+            back = (st_back == Status.OK) & (np.max(np.abs(v_back - guess[suspect]), axis=-1) <= self.same_gait)
+            st = st.copy()
+            st[suspect[~back]] = Status.NOT_LOCATED
+        return st, v, mu, s
 
     def found_at(self, r, at, v, mu, s, probed) -> None:
         """The cycle was found at ``at``; a probed grid point moves the edge on one interval."""
@@ -180,24 +197,23 @@ class _Edges:
 
 def grid_slope(x, status, v, line, ok_i, bad_i) -> np.ndarray:
     """``(edges,)`` the largest ``|dv/dx|`` between each edge's found grid gait and the
-    grid gait next to it on the other side (``inf`` where there is none: nothing
-    to judge a jump by)."""
+    grid gait next to it on the other side (NaN where there is none: every move
+    is then checked, :meth:`_Edges.followed`)."""
     inner = ok_i - np.sign(bad_i - ok_i)
     inside = (inner >= 0) & (inner < x.shape[1])
     inner = np.clip(inner, 0, x.shape[1] - 1)
     known = inside & (status[line, inner] == Status.OK)
     dx = np.abs(x[line, ok_i] - x[line, inner])
     dv = np.max(np.abs(v[line, ok_i] - v[line, inner]), axis=-1)
-    return np.where(known & (dx > 0), dv / np.where(dx > 0, dx, 1.0), np.inf)
+    return np.where(known & (dx > 0), dv / np.where(dx > 0, dx, 1.0), np.nan)
 
 
-def same_cycle(v_at, v_from, at, x_from, slope) -> np.ndarray:
-    """Whether cycles ``v_at`` (solved at ``at``) are the cycles ``v_from`` (at ``x_from``)
-    followed: they moved at most :data:`JUMP_FACTOR` times ``slope |at - x_from|``
-    (plus :data:`MIN_MOVE`), in the largest section coordinate."""
+def within_slope(v_at, v_from, at, x_from, slope) -> np.ndarray:
+    """Whether cycles ``v_at`` (solved at ``at``) moved from ``v_from`` (at ``x_from``) at
+    most :data:`JUMP_FACTOR` times ``slope |at - x_from|`` plus :data:`MIN_MOVE`, in
+    the largest section coordinate (False where ``slope`` is NaN: not known)."""
     move = np.max(np.abs(np.asarray(v_at) - np.asarray(v_from)), axis=-1)
-    bound = JUMP_FACTOR * np.asarray(slope) * np.abs(np.asarray(at) - np.asarray(x_from)) + MIN_MOVE
-    return ~(move > bound)  # a NaN cycle (a failed solve) is judged by its status, not here
+    return move <= JUMP_FACTOR * np.asarray(slope) * np.abs(np.asarray(at) - np.asarray(x_from)) + MIN_MOVE
 
 
 def approach(solve, which: np.ndarray, good: np.ndarray, target: np.ndarray, v_good: np.ndarray, mu_good: np.ndarray,
@@ -205,10 +221,12 @@ def approach(solve, which: np.ndarray, good: np.ndarray, target: np.ndarray, v_g
     """Follow the cycles of rows ``which`` from ``good`` towards ``target`` in
     :data:`APPROACH_STEPS` equal steps, each solve from the last found cycle
     (``solve(at, which, guess, x_guess)``, ``x_guess`` where that cycle was found).
-    A step whose cycle jumped to another gait (status ``NOT_LOCATED`` from
-    :func:`shrink_edges`'s solve) is tried again at half its length, at most
-    :data:`JUMP_HALVINGS` times: a jump depends on how far the start was, a
-    guard's failure on the point.
+    A step whose cycle jumped to another gait (``NOT_LOCATED``, from
+    :meth:`_Edges.followed`) is tried again at half its length, at most
+    :data:`JUMP_HALVINGS` times in a row (a jump depends on how far the start
+    was; a guard's failure on the point), and the step doubles back after each
+    success; at most :data:`APPROACH_SOLVES` solves in all, after which a row
+    still on its way fails ``NOT_LOCATED`` at its next step.
 
     Returns ``(reached, v_reached, mu_reached, s_reached, failed, status)`` per
     row: the last value where the cycle was found, its point, multipliers and
@@ -218,22 +236,30 @@ def approach(solve, which: np.ndarray, good: np.ndarray, target: np.ndarray, v_g
     reached, v_reached, mu_reached, s_reached = good.copy(), v_good.copy(), mu_good.copy(), s_good.copy()
     failed = target.copy()
     why = np.full(len(which), Status.NO_CONVERGENCE, np.int8)
-    step = (target - good) / APPROACH_STEPS
-    halvings = np.zeros(len(which), int)
-    going = np.ones(len(which), bool)
-    while going.any():
+    full = (target - good) / APPROACH_STEPS
+    step, halvings = full.copy(), np.zeros(len(which), int)
+    going, arrived = np.ones(len(which), bool), np.zeros(len(which), bool)
+    for _ in range(APPROACH_SOLVES):
         idx = np.flatnonzero(going)
+        if idx.size == 0:
+            break
         last = np.abs(target[idx] - reached[idx]) <= np.abs(step[idx]) * (1 + 1e-12)
         at = np.where(last, target[idx], reached[idx] + step[idx])
         st, v_at, mu_at, s_at = solve(at, which[idx], v_reached[idx], reached[idx])
         ok = st == Status.OK
         reached[idx[ok]], v_reached[idx[ok]], mu_reached[idx[ok]], s_reached[idx[ok]] = at[ok], v_at[ok], mu_at[ok], s_at[ok]
-        going[idx[ok & last]] = False
-        retry = ~ok & (st == Status.NOT_LOCATED) & (halvings[idx] < JUMP_HALVINGS)
+        arrived[idx[ok & last]] = True
+        step[idx[ok]] = np.where(np.abs(2 * step[idx[ok]]) <= np.abs(full[idx[ok]]), 2 * step[idx[ok]], full[idx[ok]])
+        halvings[idx[ok]] = 0
+        retry = ~ok & (st == Status.NOT_LOCATED) & (halvings[idx] < JUMP_HALVINGS) & (at != reached[idx])
         step[idx[retry]] *= 0.5
         halvings[idx[retry]] += 1
         stop = ~ok & ~retry
         failed[idx[stop]], why[idx[stop]] = at[stop], st[stop]
         going[idx[stop]] = False
-    failed[~np.isnan(failed) & (reached == target)] = np.nan  # every step found, the target too
+        going[idx[arrived[idx]]] = False
+    out = going & ~arrived  # out of solves on the way: not followed further
+    failed[out] = np.where(np.abs(target[out] - reached[out]) <= np.abs(step[out]), target[out], reached[out] + step[out])
+    why[out] = Status.NOT_LOCATED
+    failed[arrived] = np.nan  # every step found, the target too: no failure on this side
     return reached, v_reached, mu_reached, s_reached, failed, why

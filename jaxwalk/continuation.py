@@ -37,6 +37,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxwalk.errors import ConfigError
 from jaxwalk.gait import Fallback, Gait, NewtonOptions, find_gait
 from jaxwalk.status import Status
 from jaxwalk.step import SolverOptions
@@ -52,13 +53,28 @@ def seed_index(values: np.ndarray, default: float) -> int:
 
 def start_value(model: Walker, axis: str, fixed: Mapping[str, float], values: np.ndarray,
                 guess_at: Mapping[str, float] | None = None) -> float:
-    """Where lines along ``axis`` start (before :func:`seed_index` picks the grid
-    value nearest it): ``guess_at[axis]`` where the user's gait guess says where its
-    gait is (``[analysis] gait_guess_at`` of a sweep), else the model's own
+    """Where lines along ``axis`` (grid ``values``) start: the grid value nearest
+    ``guess_at[axis]`` where the user's gait guess says where its gait is
+    (``[analysis] gait_guess_at`` of a sweep), else the model's own
     :meth:`~jaxwalk.walker.Walker.seed_value`."""
     if guess_at and axis in guess_at:
-        return float(guess_at[axis])
+        values = np.asarray(values, np.float64).reshape(-1)
+        return float(values[seed_index(values, float(guess_at[axis]))])
     return model.seed_value(axis, fixed, values)
+
+
+def checked_guess(model: Walker, options) -> np.ndarray | None:
+    """``options.gait_guess`` (:class:`jaxwalk.grid.AnalysisOptions`) as ``(n_v,)``
+    float64, or ``None``. Raises :class:`~jaxwalk.errors.ConfigError` unless it is
+    the model's number of finite section coordinates."""
+    if options.gait_guess is None:
+        return None
+    guess = np.asarray(options.gait_guess, np.float64).reshape(-1)
+    n_v = len(model.section_names)
+    if guess.shape != (n_v,) or not np.isfinite(guess).all():
+        raise ConfigError(f"gait_guess must be {n_v} finite numbers ({', '.join(model.section_names)}), "
+                          f"got {list(options.gait_guess)!r}")
+    return guess
 
 
 def fill_starts(starts: np.ndarray | None, n_lines: int, guess: np.ndarray | None) -> np.ndarray | None:

@@ -25,7 +25,7 @@ from jaxwalk.analyses.gait import OUTPUTS as GAIT_OUTPUTS
 from jaxwalk.attractor import AttractorOptions
 from jaxwalk.batching import sub_batch_size
 from jaxwalk.batching import Rows, over_rows, run_chunks as _run_chunks
-from jaxwalk.continuation import fill_starts, seed_index, start_value
+from jaxwalk.continuation import checked_guess, fill_starts, seed_index, start_value
 from jaxwalk.gait import Gait, NewtonOptions, find_gait
 from jaxwalk.lines import run_lines
 from jaxwalk.parameters import parameter_grid as parameter_grid
@@ -236,7 +236,7 @@ def analyse_chunk(
         rows = {n: v.reshape(-1, len(values)) for n, v in moved.items()}
         if starts is not None:
             starts = np.asarray(starts, np.float64).reshape(-1, len(model.section_names))
-        starts = fill_starts(starts, next(iter(rows.values())).shape[0], options.gait_guess)
+        starts = fill_starts(starts, next(iter(rows.values())).shape[0], checked_guess(model, options))
         gaits = run_lines(model, rows, values, seed, options.solver, options.newton, options.chunk_size, starts, progress)
 
         def unflatten(x):

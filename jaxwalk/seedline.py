@@ -11,7 +11,7 @@ from B's seed (the B value nearest its seed value; with ``[analysis]
 gait_guess`` from that guess, at ``gait_guess_at`` where it names B) up then down, exactly as
 :func:`jaxwalk.lines.run_lines` walks any line; every A-line then
 starts its seed point from the seed line's gait at its B value (from the
-model's guess where the seed line failed there). With more than two axes
+model's guess, or the ``gait_guess``, where the seed line failed there). With more than two axes
 there is one seed line per combination of the others.
 
 The seed lines run once for the whole grid, before its blocks; each block is
@@ -28,7 +28,7 @@ from typing import Mapping, NamedTuple
 
 import numpy as np
 
-from jaxwalk.continuation import fill_starts, seed_index, start_value
+from jaxwalk.continuation import checked_guess, fill_starts, seed_index, start_value
 from jaxwalk.lines import run_lines
 from jaxwalk.parameters import parameter_grid
 from jaxwalk.walker import Walker
@@ -94,7 +94,7 @@ def seed_lines(model: Walker, fixed: Mapping[str, float], grid: Mapping[str, np.
     moved_shape = next(iter(moved.values())).shape
     rows = {n: v.reshape(-1, len(b_values)) for n, v in moved.items()}
     seed_b = seed_index(b_values, start_value(model, seed_axis, fixed, b_values, guess_at))
-    starts = fill_starts(None, next(iter(rows.values())).shape[0], options.gait_guess)
+    starts = fill_starts(None, next(iter(rows.values())).shape[0], checked_guess(model, options))
     gaits = run_lines(model, rows, b_values, seed_b, options.solver, options.newton, options.chunk_size, starts)
 
     def back(x):

@@ -89,17 +89,18 @@ def test_a_cycle_followed_past_the_line_end_has_no_edge(monkeypatch):
 #: A second gait beside the line's: it exists on [OTHER_LO, OTHER_HI], which runs past the
 #: line's EDGE, and Newton lands on it from starts farther than NEAR from the target
 #: (with ``beyond = "other"``, from any start beyond EDGE).
-OTHER_LO, OTHER_HI, NEAR = 0.55, 0.85, 0.02
+OTHER_LO, OTHER_HI, NEAR = 0.45, 0.85, 0.02
 
 
 def _two_gaits(beyond: str):
     def evaluate(model, k, solver, newton, params, v0):
-        x, start = np.asarray(params["gamma"], np.float64), np.asarray(v0)[:, 0]
-        gap = np.abs(x - start)
-        near = (gap <= NEAR) & ((x < EDGE) | (beyond == "scuff"))
-        line = near & (x < EDGE)
-        other = ~near & (x >= OTHER_LO) & (x <= OTHER_HI) & (gap <= REACH)
-        line |= ~near & ~other & (x < EDGE) & (gap <= REACH)
+        x, start = np.asarray(params["gamma"], np.float64), np.asarray(v0)
+        gap = np.abs(x - start[:, 0])
+        on_other = (x >= OTHER_LO) & (x <= OTHER_HI) & (gap <= REACH)
+        # Newton stays on the gait it starts from, and lands on the other from a far start
+        # (with beyond = "other", from any start past EDGE).
+        other = on_other & ((start[:, 1] > 0.25) | (gap > NEAR) | ((beyond == "other") & (x >= EDGE)))
+        line = ~other & (x < EDGE) & (gap <= REACH)
         status = np.where(line | other, Status.OK, np.where(x >= EDGE, Status.SCUFFING, Status.NO_CONVERGENCE))
         v = np.stack([x, np.where(other, 0.5, 0.0)], axis=1)
         mu = np.where(other[:, None], np.array([1.3, 0.1]), np.array([0.5, 0.1])).astype(np.complex128)
@@ -128,3 +129,47 @@ def test_an_edge_is_the_lines_own_gaits_not_a_gait_newton_jumped_to(monkeypatch,
     assert found.kind.tolist() == [expected[0]] and found.beyond.tolist() == [expected[1]]
     assert abs(found.parameter[0] - EDGE) <= 1e-6
     assert found.v[0, 1] == 0.0 and found.multipliers[0, 0].real == 0.5
+
+
+def _fold(x_fold: float):
+    """One gait, ``v = (x, sqrt(x_fold - x))``, multiplier ``1 - sqrt(x_fold - x)``: it
+    turns back at ``x_fold`` (no fixed point beyond), moving ever faster towards it."""
+    def evaluate(model, k, solver, newton, params, v0):
+        x = np.asarray(params["gamma"], np.float64)
+        found = (x < x_fold) & (np.abs(x - np.asarray(v0)[:, 0]) <= REACH)
+        root = np.sqrt(np.clip(x_fold - x, 0.0, None))
+        v = np.stack([x, root], axis=1)
+        mu = np.stack([1.0 - root, np.full_like(x, 0.1)], axis=1).astype(np.complex128)
+        return np.where(found, Status.OK, Status.NO_CONVERGENCE).astype(np.int8), v, mu, np.zeros((len(x), k), np.int64)
+
+    return evaluate
+
+
+@pytest.mark.parametrize("gap", [3e-3, 1e-3])
+def test_a_fold_just_past_a_grid_point_is_followed_to_the_fold(monkeypatch, gap):
+    """Near a fold the gait moves like sqrt(distance), far faster than the grid's
+    slope: a move beyond the slope bound that solves back to the same gait is the
+    line's own, so the edge is the fold, located to tolerance (a review's case)."""
+    x_fold = 0.5 + gap
+    monkeypatch.setattr(bifurcation, "_evaluate", _fold(x_fold))
+    x = np.array([[0.4, 0.5, 0.6]])
+    status = np.array([[Status.OK, Status.OK, Status.NO_CONVERGENCE]], np.int8)
+    v = np.array([[[0.4, np.sqrt(x_fold - 0.4)], [0.5, np.sqrt(gap)], [np.nan, np.nan]]])
+    mu = np.array([[[1 - np.sqrt(x_fold - 0.4), 0.1], [1 - np.sqrt(gap), 0.1], [np.nan, np.nan]]], np.complex128)
+    found = locate(get_model("simplest"), {"gamma": x}, "gamma", status, v, mu, options=BifurcationOptions(tol=1e-6), progress=_Bar())
+    assert found.kind.tolist() == [Kind.FOLD] and found.beyond.tolist() == [Status.NO_CONVERGENCE]
+    assert abs(found.parameter[0] - x_fold) <= 2e-6
+
+
+def test_an_edge_without_a_grid_neighbour_checks_every_move(monkeypatch):
+    """A line with one found grid point gives no slope: every move is solved back,
+    and the jump to the second gait is still refused."""
+    monkeypatch.setattr(bifurcation, "_evaluate", _two_gaits("scuff"))
+    x = np.array([[0.4, 0.5, 1.0]])
+    status = np.array([[Status.NO_CONVERGENCE, Status.OK, Status.SCUFFING]], np.int8)
+    v = np.array([[[np.nan, np.nan], [0.5, 0.0], [np.nan, np.nan]]])
+    mu = np.tile(np.array([0.5, 0.1], np.complex128), (1, 3, 1))
+    found = locate(get_model("simplest"), {"gamma": x}, "gamma", status, v, mu, options=BifurcationOptions(tol=1e-6), progress=_Bar())
+    grazing = found.kind == Kind.GRAZING
+    assert grazing.sum() == 1 and abs(found.parameter[grazing][0] - EDGE) <= 1e-6
+    assert found.v[grazing][0, 1] == 0.0

@@ -305,8 +305,9 @@ def test_a_sweep_records_its_gait_guess(runs, tmp_path):
         ('continuation = "m_h"\ngait_guess_at = { m_h = 10.0 }', "gait_guess_at needs gait_guess"),
         ('continuation = "m_h"\ngait_guess = true', "gait_guess must be a list of 3 numbers"),
         ('continuation = "m_h"\ngait_guess = [0.2, -0.2, 0.1]\ngait_guess_at = { m_h = "x" }', "gait_guess_at m_h must be a finite number, got 'x'"),
+        ('continuation = "m_h"\ngait_guess = [0.2, -0.2, 0.1]\ngait_guess_at = { m_h = 30.0 }', "gait_guess_at m_h = 30.0 is outside the grid's m_h [8, 12]"),
     ],
-    ids=["length", "no-continuation", "not-a-line", "at-alone", "true", "at-not-a-number"],
+    ids=["length", "no-continuation", "not-a-line", "at-alone", "true", "at-not-a-number", "at-off-grid"],
 )
 def test_bad_gait_guess(tmp_path, monkeypatch, capsys, analysis, fragment):
     text = CONFIG.split("[analysis]")[0] + f"[analysis]\n{analysis}\n"
@@ -319,3 +320,10 @@ def test_bad_gait_guess(tmp_path, monkeypatch, capsys, analysis, fragment):
     captured = capsys.readouterr()
     assert captured.out == "" and captured.err.count("\n") == 1 and fragment in captured.err
     assert not (tmp_path / "res").exists()
+
+
+def test_a_bad_gait_guess_through_the_api_is_one_config_error():
+    """The Python API refuses a guess of the wrong length or with NaN before anything runs."""
+    for guess in ((0.2, -0.2), (0.2, float("nan"), 0.1)):
+        with pytest.raises(ConfigError, match="gait_guess must be 3 finite numbers"):
+            G.analyse_grid(MODEL, {}, GRID, "m_h", G.AnalysisOptions(gait_guess=guess))

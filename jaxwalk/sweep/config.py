@@ -245,11 +245,11 @@ def parse_config(
     }
     table = data.get("analysis", {})
     gait, continuation, seed_axis, solver = _analysis(table, list(axis_specs), fail)
-    guess, guess_at = _gait_guess(gait, continuation, seed_axis, len(model.section_names), fail)
+    axes = tuple(grid_axis(axis, spec) for axis, spec in axis_specs.items())
+    guess, guess_at = _gait_guess(gait, continuation, seed_axis, len(model.section_names), axes, fail)
     settings = _analyses(table, continuation, model, fail)
     check_supported(model, _requested(settings), fail)  # the capabilities they need (jaxwalk.walker)
     _check_size(axis_specs, len(model.section_names), max_points, fail, settings)
-    axes = tuple(grid_axis(axis, spec) for axis, spec in axis_specs.items())
 
     fixed = {p: spec.default for p, spec in specs.items() if p not in axis_specs}
     fixed.update(params)
@@ -315,9 +315,10 @@ def _analysis(table, names, fail) -> tuple[Gait, str | None, str | None, dict[st
     return gait, continuation, seed_axis, Solver.settings(table, fail)
 
 
-def _gait_guess(gait: Gait, continuation, seed_axis, n_v: int, fail) -> tuple[tuple[float, ...] | None, dict[str, float]]:
+def _gait_guess(gait: Gait, continuation, seed_axis, n_v: int, axes, fail) -> tuple[tuple[float, ...] | None, dict[str, float]]:
     """``[analysis] gait_guess`` (``n_v`` finite numbers, or false) and ``gait_guess_at``
-    (grid axes the lines follow, each to a finite number); both need continuation."""
+    (grid axes the lines follow, each to a finite number within the axis's range);
+    both need continuation."""
     where = "[analysis]"
     if gait.gait_guess is False:
         if gait.gait_guess_at:
@@ -337,6 +338,10 @@ def _gait_guess(gait: Gait, continuation, seed_axis, n_v: int, fail) -> tuple[tu
                        f"(lines follow {' and '.join(repr(a) for a in lines)})")
         if not _finite(value):
             raise fail(f"{where}: gait_guess_at {axis} must be a finite number, got {value!r}")
+        grid = next(a.values for a in axes if a.name == axis)
+        if not grid.min() <= value <= grid.max():
+            raise fail(f"{where}: gait_guess_at {axis} = {value!r} is outside the grid's {axis} "
+                       f"[{grid.min():g}, {grid.max():g}] (the lines would start at its end, not at that gait)")
     return tuple(float(x) for x in values), {a: float(v) for a, v in gait.gait_guess_at.items()}
 
 
