@@ -149,6 +149,12 @@ def test_without_seed_axis_nothing_changes():
     ids=["unknown-axis", "continuation-axis", "no-continuation", "not-a-name"],
 )
 def test_bad_seed_axis(tmp_path, monkeypatch, capsys, analysis, fragment):
+    _refused(tmp_path, monkeypatch, capsys, analysis, fragment)
+
+
+def _refused(tmp_path, monkeypatch, capsys, analysis, fragment):
+    """``[analysis]`` text ``analysis``: one ConfigError line naming ``fragment``, and
+    from the command line exit status 2, one line on stderr, nothing written."""
     text = CONFIG.split("[analysis]")[0] + f"[analysis]\n{analysis}\n"
     with pytest.raises(ConfigError) as info:
         loads_config(text, source="t.toml")
@@ -310,16 +316,7 @@ def test_a_sweep_records_its_gait_guess(runs, tmp_path):
     ids=["length", "no-continuation", "not-a-line", "at-alone", "true", "at-not-a-number", "at-off-grid"],
 )
 def test_bad_gait_guess(tmp_path, monkeypatch, capsys, analysis, fragment):
-    text = CONFIG.split("[analysis]")[0] + f"[analysis]\n{analysis}\n"
-    with pytest.raises(ConfigError) as info:
-        loads_config(text, source="t.toml")
-    assert "\n" not in str(info.value) and fragment in str(info.value)
-    monkeypatch.chdir(tmp_path)
-    (tmp_path / "sweep.toml").write_text(text)
-    assert cli.main(["sweep", "sweep.toml", "--out", "res"]) == 2
-    captured = capsys.readouterr()
-    assert captured.out == "" and captured.err.count("\n") == 1 and fragment in captured.err
-    assert not (tmp_path / "res").exists()
+    _refused(tmp_path, monkeypatch, capsys, analysis, fragment)
 
 
 def test_a_bad_gait_guess_through_the_api_is_one_config_error():
