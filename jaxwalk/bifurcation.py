@@ -16,8 +16,8 @@ edge is located by bisection on "the gait is followed there" (a failure is
 confirmed by following the gait to it in steps, and the grid point beyond is
 itself re-solved from the gait next to it) and labelled **grazing**
 when the failure beyond it is a guard's (:data:`GUARD_FAILURES`: scuffing, a
-fall, ...: the event sequence changes), **fold** when a real multiplier is within
-``fold_window`` of +1 at the edge (the gait turns back: a natural-parameter
+fall, ...: the event sequence changes), else **fold** when a real multiplier is
+within ``fold_window`` of +1 at the edge (the gait turns back: a natural-parameter
 line cannot follow it), and **lost** otherwise.
 
 Where neighbouring gaits' steps take different event sequences (models that
@@ -111,7 +111,8 @@ class BifurcationOptions:
     Attributes:
         tol: half-width of the final bracket (parameter units): the located value's accuracy.
         max_iter: root-finder iterations per bracket before ``NOT_LOCATED``.
-        fold_window: at a lost gait's edge, a real multiplier within this of +1 makes it a fold;
+        fold_window: at a lost gait's edge where no guard failed beyond, a real multiplier
+            within this of +1 makes it a fold;
             a located fold, flip or Neimark-Sacker point needs a multiplier within it of
             +1 or -1 (a pair whose product is within it of 1) at both ends of its
             closed bracket, else it is a :attr:`Kind.JUMP`.
@@ -423,12 +424,14 @@ GUARD_FAILURES = frozenset({Status.FELL, Status.STALLED, Status.RUNNING, Status.
 
 
 def _edge_row(r: dict, options: BifurcationOptions) -> dict:
-    """An edge's kind: a fold where a real multiplier is near +1, grazing where a guard
-    failed the step beyond (:data:`GUARD_FAILURES`), else lost."""
+    """An edge's kind: grazing where a guard failed the step beyond (:data:`GUARD_FAILURES`:
+    seen), else a fold where a real multiplier is near +1, else lost. A guard seen
+    failing outranks the multiplier: near a grazing the map is not smooth, and a
+    multiplier that jumped near +1 there is not a branch turning back."""
     mu = r["multipliers"]
     real = mu[np.abs(mu.imag) < 1e-9].real
     near_one = real.size and np.min(np.abs(real - 1.0)) < options.fold_window
-    kind = Kind.FOLD if near_one else Kind.GRAZING if int(r["beyond"]) in GUARD_FAILURES else Kind.LOST
+    kind = Kind.GRAZING if int(r["beyond"]) in GUARD_FAILURES else Kind.FOLD if near_one else Kind.LOST
     return {**r, "kind": kind, "status": Status.OK}
 
 

@@ -173,3 +173,20 @@ def test_an_edge_without_a_grid_neighbour_checks_every_move(monkeypatch):
     grazing = found.kind == Kind.GRAZING
     assert grazing.sum() == 1 and abs(found.parameter[grazing][0] - EDGE) <= 1e-6
     assert found.v[grazing][0, 1] == 0.0
+
+
+def test_a_guard_failing_beyond_outranks_a_multiplier_near_one(monkeypatch):
+    """At the edge the last cycle's multiplier is 0.97 (within the fold window) but the
+    step beyond scuffs: the cause seen is the guard, so the edge is grazing (the
+    heel-rise trailing-reset line's edge at k 0.28134, whose multipliers jump there)."""
+    def near_one(model, k, solver, newton, params, v0):
+        status, v, mu, seq = _fake_evaluate(model, k, solver, newton, params, v0)
+        return status, v, np.tile(np.array([0.97, 0.1], np.complex128), (len(status), 1)), seq
+
+    monkeypatch.setattr(bifurcation, "_evaluate", near_one)
+    x = np.array([[0.0, 0.5, 1.0]])
+    status = np.array([[Status.OK, Status.OK, Status.SCUFFING]], np.int8)
+    v = np.array([[[0.0, 0.0], [0.5, 0.0], [np.nan, np.nan]]])
+    mu = np.tile(np.array([0.97, 0.1], np.complex128), (1, 3, 1))
+    found = locate(get_model("simplest"), {"gamma": x}, "gamma", status, v, mu, options=BifurcationOptions(tol=1e-6), progress=_Bar())
+    assert found.kind.tolist() == [Kind.GRAZING] and found.beyond.tolist() == [Status.SCUFFING]
