@@ -26,6 +26,7 @@ from jaxwalk.attractor import AttractorOptions
 from jaxwalk.batching import sub_batch_size
 from jaxwalk.batching import Rows, over_rows, run_chunks as _run_chunks
 from jaxwalk.continuation import checked_guess, fill_starts, seed_index, start_value
+from jaxwalk.errors import ConfigError
 from jaxwalk.gait import Gait, NewtonOptions, find_gait
 from jaxwalk.lines import run_lines
 from jaxwalk.parameters import parameter_grid as parameter_grid
@@ -155,8 +156,8 @@ def analyse_grid(
     along = None if continuation_axis is None else list(grid).index(continuation_axis)
     chunks = chunk_shape(shape, options.chunk_size, along)
     out: dict[str, np.ndarray] = {}
-    if (seed_axis is not None or starts is not None or options.gait_guess is not None) and continuation_axis is None:
-        raise ValueError("seed lines, start points and a gait guess need a continuation axis")
+    if (seed_axis is not None or starts is not None) and continuation_axis is None:
+        raise ValueError("seed lines and start points need a continuation axis")
     if seed_axis is not None:
         from jaxwalk.seedline import seed_lines
 
@@ -223,6 +224,8 @@ def analyse_chunk(
     axes = list(grid)
     shape = tuple(len(np.atleast_1d(grid[a])) for a in axes)
     if continuation_axis is None:
+        if options.gait_guess is not None:  # independent points start from the model's guess: refuse, not ignore
+            raise ConfigError("gait_guess needs a continuation axis (the lines start from it)")
         rows = Rows({k: v.reshape(-1) for k, v in params.items()})
         program = _independent_program(model, options.solver, options.newton)
         gaits = _run_chunks(program, rows, options.chunk_size, progress)

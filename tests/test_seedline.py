@@ -324,3 +324,6 @@ def test_a_bad_gait_guess_through_the_api_is_one_config_error():
     for guess in ((0.2, -0.2), (0.2, float("nan"), 0.1)):
         with pytest.raises(ConfigError, match="gait_guess must be 3 finite numbers"):
             G.analyse_grid(MODEL, {}, GRID, "m_h", G.AnalysisOptions(gait_guess=guess))
+    # Without continuation the points start independently: the guess is refused, not ignored.
+    with pytest.raises(ConfigError, match="gait_guess needs a continuation axis"):
+        G.analyse_grid(MODEL, {}, GRID, None, G.AnalysisOptions(gait_guess=(0.2, -0.2, 0.1)))
