@@ -59,7 +59,8 @@ def sub_batch_size(model, solver) -> int:
 def in_sub_batches(fn, rows, sub_batch: int, valid: Bool[Array, " n"] | None = None):
     """``vmap(fn)(rows)`` over the leading axis of every leaf of the pytree
     ``rows``, computed as ``lax.map`` over sub-batches of ``sub_batch`` rows
-    (the last one padded with copies of the last row).
+    (the last one padded with copies of the last row); with ``sub_batch`` 1,
+    ``fn`` of each row without ``vmap`` (:func:`_one_row`).
 
     Where ``valid`` is given (``(n,)`` bool, :attr:`Rows.valid`), a sub-batch
     without a valid row is skipped (a real branch: its outputs are zeros), so
@@ -74,7 +75,7 @@ def in_sub_batches(fn, rows, sub_batch: int, valid: Bool[Array, " n"] | None = N
             x = jnp.concatenate([x, jnp.repeat(x[-1:], pad, axis=0)], axis=0)
         return x.reshape((n_sub, sub) + x.shape[1:])
 
-    batched = jax.jit(jax.vmap(fn))  # one trace for the output's shape and the branch
+    batched = jax.jit(_one_row(fn) if sub == 1 else jax.vmap(fn))  # one trace for the output's shape and the branch
     if valid is None:
         out = jax.lax.map(batched, jax.tree_util.tree_map(split, rows))
     else:
@@ -83,6 +84,20 @@ def in_sub_batches(fn, rows, sub_batch: int, valid: Bool[Array, " n"] | None = N
         any_valid = split(jnp.asarray(valid, bool)).any(axis=1)
         out = jax.lax.map(lambda xs: jax.lax.cond(xs[1], batched, zeros, xs[0]), (jax.tree_util.tree_map(split, rows), any_valid))
     return jax.tree_util.tree_map(lambda x: x.reshape((n_sub * sub,) + x.shape[2:])[:n], out)
+
+
+def _one_row(fn):
+    """``vmap(fn)`` over a leading axis of length 1, without ``vmap``.
+
+    Under ``vmap`` every ``lax.cond`` with a batched predicate becomes a
+    ``select`` that computes both branches (and a ``while_loop``'s body masks
+    its carry), even for one row. Calling ``fn`` on the row itself keeps the
+    program's branches real (diffrax's and equinox's too)."""
+
+    def one(rows):
+        return jax.tree_util.tree_map(lambda x: x[None], fn(jax.tree_util.tree_map(lambda x: x[0], rows)))
+
+    return one
 
 
 def over_rows(one: Callable, sub_batch: int):
