@@ -59,8 +59,10 @@ def sub_batch_size(model, solver) -> int:
 def in_sub_batches(fn, rows, sub_batch: int, valid: Bool[Array, " n"] | None = None):
     """``vmap(fn)(rows)`` over the leading axis of every leaf of the pytree
     ``rows``, computed as ``lax.map`` over sub-batches of ``sub_batch`` rows
-    (the last one padded with copies of the last row); with ``sub_batch`` 1,
-    ``fn`` of each row without ``vmap`` (:func:`_one_row`).
+    (the last one padded with copies of the last row). A sub-batch of one row
+    (``sub_batch`` 1, as the flat-foot walker's ``lockstep_batch`` and the basin's
+    walks ask, or a call of one row) calls ``fn`` on the row without ``vmap``
+    (:func:`_one_row`): the same values, rounded as an unbatched program rounds.
 
     Where ``valid`` is given (``(n,)`` bool, :attr:`Rows.valid`), a sub-batch
     without a valid row is skipped (a real branch: its outputs are zeros), so
@@ -95,7 +97,8 @@ def _one_row(fn):
     program's branches real (diffrax's and equinox's too)."""
 
     def one(rows):
-        return jax.tree_util.tree_map(lambda x: x[None], fn(jax.tree_util.tree_map(lambda x: x[0], rows)))
+        out = fn(jax.tree_util.tree_map(lambda x: x[0], rows))
+        return jax.tree_util.tree_map(lambda x: jnp.expand_dims(jnp.asarray(x), 0), out)
 
     return one
 

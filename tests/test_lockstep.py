@@ -14,7 +14,6 @@ import pytest
 
 from jaxwalk import grid as G
 from jaxwalk.batching import Rows, in_sub_batches, over_rows, run_chunks
-from jaxwalk.gait import NewtonOptions
 from jaxwalk.models import get_model
 from jaxwalk.models.compass import CompassWalker
 
@@ -60,11 +59,11 @@ def test_one_row_at_a_time_keeps_its_branches_real():
     row's program is not vmapped: a ``lax.cond`` stays a branch that runs one
     side, where a vmap, even of one row, turns it into a ``select`` of both sides
     (diffrax's and equinox's branches inside a step too); and it computes what
-    the vmap does."""
+    the vmap does, a constant output broadcast to every row as ``vmap`` does."""
 
     def one(p):
         root, its = _newton_sqrt(p)
-        return jax.lax.cond(its > 5, lambda r: r * 2.0, lambda r: r - 1.0, root), its
+        return jax.lax.cond(its > 5, lambda r: r * 2.0, lambda r: r - 1.0, root), its, 1.0  # and a Python float
 
     params = {"a": jnp.asarray([2.0, 1e6, 0.5])}
     for sub_batch, has_cond in ((1, True), (2, False)):
@@ -84,18 +83,18 @@ class _CompassOneAtATime(CompassWalker):
 def test_continuation_one_line_at_a_time_equals_lines_together():
     """The flat-foot walker's path (lines one at a time) against the default (64 lines
     together), on the compass walker where both compile in seconds: the same
-    statuses, and the same gaits to Newton's tolerance (1e-8). One row at a time
-    is not vmapped at all, so the two programs round differently and Newton stops
-    at different last iterates: each path's fixed points lie 1.7e-9 to 1.2e-8
-    from a solve at rtol 1e-12 and Newton tolerance 1e-12 (measured 2026-12-07),
-    the two paths 2.5e-9 apart at most."""
+    statuses, and the same gaits to 5e-9. One row at a time is not vmapped at
+    all, so the two programs round differently, the integrator's noise differs
+    and Newton stops at different last iterates: measured 2026-12-07, the two
+    paths' fixed points are up to 2.5e-9 apart (under 1e-9 while one row was a
+    vmap of one); the bound is twice that."""
     grid = {"gamma": np.array([0.03, 0.05, 0.07]), "m_h": np.array([8.0, 10.0, 12.0, 14.0])}
     together = G.analyse_grid(get_model("compass"), {}, grid, "m_h")
     alone = G.analyse_grid(_CompassOneAtATime(), {}, grid, "m_h")
     np.testing.assert_array_equal(alone["status"], together["status"])
     assert (together["status"] == 0).sum() >= 6
     ok = together["status"] == 0
-    np.testing.assert_allclose(alone["fixed_point"][ok], together["fixed_point"][ok], rtol=0, atol=NewtonOptions().tol)
+    np.testing.assert_allclose(alone["fixed_point"][ok], together["fixed_point"][ok], rtol=0, atol=5e-9)
     np.testing.assert_allclose(alone["lambda_max"][ok], together["lambda_max"][ok], rtol=0, atol=1e-6)
 
 
