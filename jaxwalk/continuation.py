@@ -119,6 +119,10 @@ class LineCarry(NamedTuple):
             its parameter value, and whether both are converged gaits of
             consecutive visits of the walk (the secant predictor's second point).
         s_seed, seed_ok: the seed point's parameter value and whether its search converged.
+        jac_prev, jac_seed: ``(n_v, n_v)`` the Jacobians of the gaits in
+            ``v_prev`` (where ``last_ok``) and ``v_seed`` (where ``seed_ok``),
+            NaN elsewhere: the chord iterations' matrix of the next search
+            (:func:`continue_segment`'s ``chord``).
     """
 
     v_prev: Array
@@ -132,13 +136,16 @@ class LineCarry(NamedTuple):
     have_prev2: Array
     s_seed: Array
     seed_ok: Array
+    jac_prev: Array
+    jac_seed: Array
 
 
 def fresh_carry(v0, have) -> LineCarry:
     """A :class:`LineCarry` that holds only a start ``v0`` (``(..., n_v)``) where ``have`` (``(...)``)."""
     no = jnp.zeros_like(have, dtype=bool) if isinstance(have, jax.Array) else np.zeros_like(have, dtype=bool)
     zero = no.astype(v0.dtype)
-    return LineCarry(v0, have, v0, have, zero, no, v0 * 0, zero, no, zero, no)
+    no_jac = v0[..., :, None] * v0[..., None, :] * np.nan  # (..., n_v, n_v), no Jacobian known
+    return LineCarry(v0, have, v0, have, zero, no, v0 * 0, zero, no, zero, no, no_jac, no_jac)
 
 
 #: Iterations after which a search from the secant that has not converged is
@@ -171,9 +178,10 @@ def secant_start(carry: LineCarry, s: Array, from_seed: Array) -> tuple[Array, A
 
 
 def after_visit(carry: LineCarry, v: Array, ok: Array, s: Array, from_seed: Array, is_first: Array,
-                start_v: Array, start_ok: Array) -> LineCarry:
+                start_v: Array, start_ok: Array, jac: Array) -> LineCarry:
     """The carry after a visit at parameter ``s`` whose search from ``start_v``
-    (``start_ok``: a real start) ended with gait ``v`` (``ok``: converged)."""
+    (``start_ok``: a real start) ended with gait ``v`` (``ok``: converged) and
+    Jacobian ``jac``."""
     # The gait before this one in the walk: the seed's on the first visit down.
     before_v = jnp.where(from_seed, carry.v_seed, carry.v_prev)
     before_s = jnp.where(from_seed, carry.s_seed, carry.s_prev)
@@ -191,6 +199,8 @@ def after_visit(carry: LineCarry, v: Array, ok: Array, s: Array, from_seed: Arra
         have_prev2=ok & before_ok,
         s_seed=jnp.where(seeded, s, carry.s_seed),
         seed_ok=carry.seed_ok | seeded,
+        jac_prev=jnp.where(ok, jac, jnp.nan),
+        jac_seed=jnp.where(seeded, jac, carry.jac_seed),
     )
 
 
@@ -204,6 +214,7 @@ def continue_segment(
     carry: LineCarry,
     solver: SolverOptions,
     newton: NewtonOptions,
+    chord: bool = False,
 ) -> tuple[LineCarry, Gait]:
     """Gaits at ``L`` consecutive visits of one continuation line, in visiting order.
 
@@ -218,6 +229,11 @@ def continue_segment(
             a masked one, as long as ``valid`` is not batched: every line of a
             call shares it), their gaits zeros and the carry unchanged.
         carry: from the visit before (:func:`fresh_carry` before the first).
+        chord: start each search with chord iterations on the Jacobian of the
+            gait it starts from (:func:`~jaxwalk.gait.find_gait`'s
+            ``jacobian_guess``): about 1.5x cheaper per gait where the line's
+            program is not vmapped (benchmarks/README.md), a ``select`` of both
+            evaluations where it is.
 
     Returns:
         The carry after the last visit, and a :class:`Gait` of ``(L,)`` leaves.
@@ -228,14 +244,17 @@ def continue_segment(
         start_v = jnp.where(from_seed, carry.v_seed, carry.v_prev)
         start_ok = jnp.where(from_seed, carry.have_seed, carry.have_prev)
         v0 = jnp.where(start_ok, start_v, guess_fn(p))
+        # The Jacobian of the gait the search starts from (NaN where it starts
+        # from a failed search's start or the model's guess: full Newton).
+        jac = jnp.where(from_seed, carry.jac_seed, carry.jac_prev) if chord else None
         if newton.predictor == "secant":
             v_secant, use, max_jump = secant_start(carry, s, from_seed)
             fallback = Fallback(v0, use, SECANT_MAX_ITER, max_jump)
-            gait = find_gait(model, p, jnp.where(use, v_secant, v0), solver, newton, fallback)
+            gait = find_gait(model, p, jnp.where(use, v_secant, v0), solver, newton, fallback, jac)
         else:
-            gait = find_gait(model, p, v0, solver, newton)
+            gait = find_gait(model, p, v0, solver, newton, None, jac)
         ok = gait.status == Status.OK
-        return after_visit(carry, gait.v, ok, s, from_seed, is_first, start_v, start_ok), gait
+        return after_visit(carry, gait.v, ok, s, from_seed, is_first, start_v, start_ok, gait.jacobian), gait
 
     # One trace serves both the shape of a skipped visit's output and the branch
     # that runs (jit caches the trace of one function object at one signature).

@@ -132,7 +132,7 @@ class Gait(NamedTuple):
         step_length: distance between successive stance feet (model length units).
         speed: ``step_length / period``.
         status: int8 :class:`~jaxwalk.status.Status`.
-        iterations: Newton iterations used (both searches where :func:`find_gait` fell back to its second start).
+        iterations: Newton iterations used, chord steps included (both searches where :func:`find_gait` fell back to its second start).
         work: actuator work per step (model energy units; 0 for passive walkers).
         cost_of_transport: ``work / (weight * step_length)``, the actuators'
             mechanical cost of transport (dimensionless; 0 for passive walkers,
@@ -218,6 +218,7 @@ def find_gait(
     solver: SolverOptions = SolverOptions(),
     newton: NewtonOptions = NewtonOptions(),
     fallback: "Fallback | None" = None,
+    jacobian_guess: Float[Array, "n_v n_v"] | None = None,
 ) -> Gait:
     """Newton-Raphson fixed point of the step map from ``v0`` (one config; vmap it).
 
@@ -235,6 +236,17 @@ def find_gait(
     that second search's (its status where it fails too); :attr:`Gait.iterations`
     counts both. Continuation lines start from an extrapolated point with the
     neighbour's gait as the fallback (:mod:`jaxwalk.continuation`).
+
+    With a finite ``jacobian_guess`` (``df/dv`` near the fixed point, the
+    neighbour's on a continuation line), the search starts with chord
+    iterations: primal steps only, each updated with ``jacobian_guess - I``,
+    until the same stopping test ends it; it goes on with full Newton where a
+    chord update contracts by :data:`CHORD_MAX_THETA` or more, after
+    :data:`CHORD_MAX_ITER` of them, and after a fallback. The evaluation at the
+    converged point always carries the tangents, so the reported Jacobian is
+    the gait's own. A ``lax.cond`` picks the evaluation, so this saves work only
+    in a program that is not vmapped (one row per sub-batch,
+    :func:`jaxwalk.batching.in_sub_batches`); under ``vmap`` both would run.
     """
     running = jnp.int8(Status.IN_PROGRESS)
     n_v, dtype = v0.shape[0], v0.dtype
@@ -247,8 +259,11 @@ def find_gait(
     carry0 = _Newton(v0, zero, running, jnp.asarray(False), jnp.full((n_v, n_v), jnp.nan, dtype), nan, nan, nan, zero, zero,
                      zero - 1, zero - 1, jnp.full(y0.shape, jnp.nan, y0.dtype), jnp.full(ctx0.shape, jnp.nan, ctx0.dtype),
                      jnp.asarray(fallback.use, bool), zero, jnp.full((), jnp.inf, dtype))
+    chord = jnp.asarray(False) if jacobian_guess is None else jnp.all(jnp.isfinite(jacobian_guess))
+    carry0 = carry0._replace(chord=chord)
     carry0 = jax.tree_util.tree_map(lambda x: state_dependent(x, v0), carry0)  # one trace of the body under vmap
-    body = _newton_iteration(step_residual(model, params, solver), newton, jnp.eye(n_v, dtype=dtype), into_section)
+    body = _newton_iteration(step_residual(model, params, solver), newton, jnp.eye(n_v, dtype=dtype), into_section,
+                             jacobian_guess)
     body = _fall_back(body, v0, fallback)
 
     def cond(c: _Newton):
@@ -279,56 +294,88 @@ class _Newton(NamedTuple):
     has_fallback: Array  # bool: the first search, which may still start again from its fallback (once)
     spent: Array  # int32, iterations of a search abandoned for the fallback
     last_update: Array  # the previous update's size in this search (inf before the first)
+    chord: Array = False  # bool: the next iteration is a chord step (find_gait's jacobian_guess)
+
+
+#: A chord update that contracts by this much or more (its size over the one before)
+#: ends the chord iterations: full Newton takes over (:func:`find_gait`'s ``jacobian_guess``).
+CHORD_MAX_THETA = 0.5
+#: Chord iterations after which full Newton takes over.
+CHORD_MAX_ITER = 6
 
 
 def _newton_iteration(residual, newton: NewtonOptions, eye: Array,
-                      into_section: Callable[[Float[Array, "n_v"]], Float[Array, "n_v"]]):
+                      into_section: Callable[[Float[Array, "n_v"]], Float[Array, "n_v"]],
+                      jacobian_guess: Array | None = None):
     """The body of :func:`find_gait`'s loop: one evaluation and update, the new
-    iterate kept in the section (:meth:`Walker.into_section`)."""
-    running = jnp.int8(Status.IN_PROGRESS)
+    iterate kept in the section (:meth:`Walker.into_section`); a chord step
+    (primal only, ``jacobian_guess - I``) where the carry says so."""
+
+    def full(carry: _Newton):
+        r, jac_r, res = value_and_jacfwd(residual, carry.v)
+        return r, jac_r, jac_r + eye, res
+
+    if jacobian_guess is None:
+        return lambda carry: _advance(carry, *full(carry), newton, into_section)
+    chord_matrix = jnp.where(jnp.isfinite(jacobian_guess), jacobian_guess, 0.0) - eye
+
+    def chord(carry: _Newton):
+        r, res = residual(carry.v)
+        return r, chord_matrix, carry.jac, res
 
     def body(carry: _Newton) -> _Newton:
-        # One evaluation per iteration. Once an update ended the search, the next
-        # iteration evaluates at the converged point and only records it: J,
-        # period and length are reported at the fixed point itself, not at the
-        # last iterate (the step map is strongly curved near the separatrix,
-        # second derivatives ~1e3 for the simplest walker, so 1e-8 matters for J).
-        v, k, converged = carry.v, carry.k, carry.converged
-        r, jac_r, res = value_and_jacfwd(residual, v)
-        update = -mechanics.solve(jac_r, r)  # unrolled for small n_v (mechanics.solve)
-        size = jnp.max(jnp.abs(update))
-        update = update * jnp.minimum(1.0, newton.max_update / jnp.maximum(size, 1e-300))
-        step_failed = res.status != Status.OK
-        bad_number = ~jnp.all(jnp.isfinite(update))
-        k = k + jnp.where(converged, 0, 1)
-        status = jnp.select(
-            [step_failed, converged, bad_number, k >= newton.max_iter],
-            [res.status, jnp.int8(Status.OK), jnp.int8(Status.NO_CONVERGENCE), jnp.int8(Status.NO_CONVERGENCE)],
-            running,
-        ).astype(jnp.int8)
-        move = ~(step_failed | bad_number | converged)
-        kept = into_section(v + update)
-        return carry._replace(
-            v=jnp.where(move, kept, v),
-            k=k,
-            status=status,
-            converged=converged | _small(size, carry.last_update, newton),
-            # A step cut to max_update, or moved back into the section, did not
-            # go where Newton sent it: no contraction is measured across it.
-            last_update=jnp.where((size > newton.max_update) | jnp.any(kept != v + update), jnp.inf, size),
-            jac=jac_r + eye,
-            period=res.time,
-            length=res.length,
-            work=res.work,
-            events=res.n_events,
-            ode_steps=res.ode_steps,
-            phase=res.phase,
-            guard=res.guard,
-            y_end=res.y,
-            ctx_end=res.ctx,
-        )
+        chording = carry.chord & ~carry.converged
+        new = _advance(carry, *jax.lax.cond(chording, chord, full, carry), newton, into_section)
+        theta = new.last_update / carry.last_update  # NaN or 0 where either is inf: no contraction measured
+        keep = chording & ~(theta >= CHORD_MAX_THETA) & (new.k < CHORD_MAX_ITER)
+        return new._replace(chord=keep)
 
     return body
+
+
+def _advance(carry: _Newton, r: Array, jac_r: Array, jac: Array, res, newton: NewtonOptions, into_section) -> _Newton:
+    """The carry after an evaluation at ``carry.v``: residual ``r``, the matrix
+    ``jac_r`` (``J - I``, or its chord stand-in) the update solves with, the
+    Jacobian ``jac`` to report and the step's result ``res``."""
+    running = jnp.int8(Status.IN_PROGRESS)
+    # Once an update ended the search, the next iteration evaluates at the
+    # converged point and only records it: J, period and length are reported at
+    # the fixed point itself, not at the last iterate (the step map is strongly
+    # curved near the separatrix, second derivatives ~1e3 for the simplest
+    # walker, so 1e-8 matters for J).
+    v, k, converged = carry.v, carry.k, carry.converged
+    update = -mechanics.solve(jac_r, r)  # unrolled for small n_v (mechanics.solve)
+    size = jnp.max(jnp.abs(update))
+    update = update * jnp.minimum(1.0, newton.max_update / jnp.maximum(size, 1e-300))
+    step_failed = res.status != Status.OK
+    bad_number = ~jnp.all(jnp.isfinite(update))
+    k = k + jnp.where(converged, 0, 1)
+    status = jnp.select(
+        [step_failed, converged, bad_number, k >= newton.max_iter],
+        [res.status, jnp.int8(Status.OK), jnp.int8(Status.NO_CONVERGENCE), jnp.int8(Status.NO_CONVERGENCE)],
+        running,
+    ).astype(jnp.int8)
+    move = ~(step_failed | bad_number | converged)
+    kept = into_section(v + update)
+    return carry._replace(
+        v=jnp.where(move, kept, v),
+        k=k,
+        status=status,
+        converged=converged | _small(size, carry.last_update, newton),
+        # A step cut to max_update, or moved back into the section, did not
+        # go where Newton sent it: no contraction is measured across it.
+        last_update=jnp.where((size > newton.max_update) | jnp.any(kept != v + update), jnp.inf, size),
+        jac=jac,
+        period=res.time,
+        length=res.length,
+        work=res.work,
+        events=res.n_events,
+        ode_steps=res.ode_steps,
+        phase=res.phase,
+        guard=res.guard,
+        y_end=res.y,
+        ctx_end=res.ctx,
+    )
 
 
 def _small(size: Array, last: Array, newton: NewtonOptions) -> Array:
@@ -378,6 +425,7 @@ def _fall_back(body, v0: Array, fallback: Fallback):
             status=jnp.where(retry, running, new.status),
             converged=new.converged & ~retry,
             last_update=jnp.where(retry, jnp.inf, new.last_update),
+            chord=new.chord & ~retry,
             has_fallback=carry.has_fallback & ~retry,
             spent=new.spent + jnp.where(retry, new.k, 0),
         )

@@ -55,8 +55,12 @@ def segment_program(model: Walker, solver: SolverOptions, newton: NewtonOptions)
     padding visits are skipped, not masked). It returns ``(carry, gaits)`` with
     the same leading axis."""
 
+    # Chord iterations pay only where a line's program is not vmapped: one line per sub-batch.
+    chord = sub_batch_size(model, solver) == 1
+
     def line(params, inputs: SegmentInputs, valid):
-        return continue_segment(model, params, inputs.position, inputs.restart, inputs.first, valid, inputs.carry, solver, newton)
+        return continue_segment(model, params, inputs.position, inputs.restart, inputs.first, valid, inputs.carry, solver,
+                                newton, chord)
 
     def program(rows: Rows):
         valid = rows.inputs.visit_valid[0]
@@ -223,4 +227,5 @@ def _neighbour_carry(gaits: Gait, positions: np.ndarray, line: np.ndarray, point
     v1, have = v[line, point + side], np.ones(line.shape, bool)
     carry = fresh_carry(v1, have)
     return carry._replace(s_prev=s[point + side], last_ok=have, v_prev2=np.where(have2[:, None], v[line, beyond], 0.0),
-                          s_prev2=np.where(have2, s[beyond], 0.0), have_prev2=have2)
+                          s_prev2=np.where(have2, s[beyond], 0.0), have_prev2=have2,
+                          jac_prev=np.asarray(gaits.jacobian)[line, point + side])

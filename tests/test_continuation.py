@@ -26,7 +26,7 @@ def _walk(v_of_s, positions, from_seed=None):
     from_seed = from_seed or [False] * len(positions)
     for k, (s, seed) in enumerate(zip(positions, from_seed)):
         carry = after_visit(carry, v_of_s(s), jnp.asarray(True), jnp.asarray(s), jnp.asarray(seed), jnp.asarray(k == 0),
-                            carry.v_prev, carry.have_prev)
+                            carry.v_prev, carry.have_prev, s * jnp.eye(2))  # a Jacobian that names its visit
     return carry
 
 
@@ -59,10 +59,14 @@ def test_the_walk_down_extrapolates_from_the_seed():
 def test_a_failed_visit_breaks_the_secant():
     line = lambda s: jnp.array([s, s])
     carry = _walk(line, [0.1, 0.2])
+    np.testing.assert_array_equal(carry.jac_prev, 0.2 * np.eye(2))  # the chord's matrix: the last gait's Jacobian
+    np.testing.assert_array_equal(carry.jac_seed, 0.1 * np.eye(2))
     failed = after_visit(carry, jnp.full(2, jnp.nan), jnp.asarray(False), jnp.asarray(0.3), jnp.asarray(False),
-                         jnp.asarray(False), carry.v_prev, carry.have_prev)
+                         jnp.asarray(False), carry.v_prev, carry.have_prev, jnp.full((2, 2), jnp.nan))
     assert not bool(secant_start(failed, jnp.asarray(0.4), jnp.asarray(False))[1])
     np.testing.assert_array_equal(failed.v_prev, line(0.2))  # the next start: the last gait found
+    # ... but not its Jacobian: the next search starts with full Newton.
+    assert np.isnan(failed.jac_prev).all() and not np.isnan(failed.jac_seed).any()
 
 
 def test_a_search_that_fails_stalls_or_jumps_starts_again_from_its_fallback():
@@ -131,11 +135,13 @@ def test_segments_carry_each_visit_s_parameter_value():
 def test_the_fill_starts_from_the_secant_through_its_neighbours():
     """``_neighbour_carry``: from the left the neighbour is point - 1 and the
     secant's second point point - 2, from the right point + 1 and point + 2;
-    at a line's end, or where the point beyond failed, there is no secant."""
+    at a line's end, or where the point beyond failed, there is no secant; the
+    search's chord iterations use the neighbour's Jacobian."""
     status = np.full((1, 6), Status.OK, np.int8)
     status[0, 4] = Status.FELL
     v = np.arange(12.0).reshape(1, 6, 2)
-    gaits = Gait(v, *([None] * 6), status, *([None] * 5))
+    jac = np.arange(24.0).reshape(1, 6, 2, 2)
+    gaits = Gait(v, jac, *([None] * 5), status, *([None] * 5))
     s = np.array([0.0, 0.1, 0.3, 0.6, 1.0, 1.5])
     point, side = np.array([2, 1, 2, 3, 1, 4]), np.array([-1, -1, 1, -1, 1, 1])
     carry = _neighbour_carry(gaits, s, np.zeros(6, int), point, side)
@@ -145,6 +151,7 @@ def test_the_fill_starts_from_the_secant_through_its_neighbours():
     np.testing.assert_array_equal(carry.have_prev2, [True, False, False, True, True, False])
     np.testing.assert_array_equal(carry.s_prev2[[0, 3, 4]], s[[0, 1, 3]])
     np.testing.assert_array_equal(carry.v_prev2[[0, 3, 4]], v[0, [0, 1, 3]])
+    np.testing.assert_array_equal(carry.jac_prev, jac[0, point + side])  # the chord's matrix: the neighbour's Jacobian
 
 
 def test_the_config_and_the_options_offer_the_same_predictors():

@@ -1,0 +1,101 @@
+"""Chord iterations from a neighbour's Jacobian (``find_gait``'s ``jacobian_guess``,
+the flat-foot walker's continuation lines): primal steps updated with the guess
+while they contract, full Newton after, the tangents always at the fixed point."""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from jaxwalk.gait import CHORD_MAX_THETA, NewtonOptions, _Newton, _newton_iteration, find_gait
+from jaxwalk.models import get_model
+from jaxwalk.status import Status
+
+#: A linear step map f(v) = M v + c: its fixed point and Jacobian are known exactly.
+M = jnp.asarray([[0.8, 0.1], [-0.2, 0.3]])
+C = jnp.asarray([0.05, -0.02])
+FIXED_POINT = np.linalg.solve(np.eye(2) - np.asarray(M), np.asarray(C))
+
+
+class _Result(NamedTuple):
+    """What :func:`jaxwalk.gait._newton_iteration` reads of a step (a stand-in for StepResult)."""
+
+    status: jax.Array
+    time: jax.Array
+    length: jax.Array
+    work: jax.Array
+    n_events: jax.Array
+    ode_steps: jax.Array
+    phase: jax.Array
+    guard: jax.Array
+    y: jax.Array
+    ctx: jax.Array
+
+
+def _search(guess) -> list[tuple[bool, _Newton]]:
+    """Run the loop's body by hand from ``v = 0`` with ``guess`` as the chord's
+    Jacobian: ``[(a chord step, carry after), ...]`` until the search ends."""
+    zero, i0, nan = jnp.zeros(()), jnp.zeros((), jnp.int32), jnp.full((), jnp.nan)
+    result = _Result(jnp.int8(Status.OK), zero, zero, zero, i0, i0, i0, i0, jnp.zeros(2), jnp.zeros(1))
+    residual = lambda v: (M @ v + C - v, result)
+    body = jax.jit(_newton_iteration(residual, NewtonOptions(), jnp.eye(2), lambda v: v, jnp.asarray(guess)))
+    carry = _Newton(jnp.zeros(2), i0, jnp.int8(Status.IN_PROGRESS), jnp.asarray(False), jnp.full((2, 2), nan), nan, nan,
+                    nan, i0, i0, i0 - 1, i0 - 1, jnp.zeros(2), jnp.zeros(1), jnp.asarray(False), i0, jnp.full((), jnp.inf),
+                    jnp.asarray(True))
+    trail = []
+    while int(carry.status) == Status.IN_PROGRESS and len(trail) < 30:
+        chord_step = bool(carry.chord) and not bool(carry.converged)
+        carry = body(carry)
+        trail.append((chord_step, carry))
+    return trail
+
+
+def test_a_close_guess_takes_chord_steps_to_the_fixed_point_and_reports_its_own_jacobian():
+    trail = _search(M + 0.01 * jnp.asarray([[1.0, -1.0], [0.5, 2.0]]))
+    chord = [c for c, _ in trail]
+    end = trail[-1][1]
+    assert int(end.status) == Status.OK
+    assert all(chord[:-1]) and not chord[-1], chord  # chord steps only, then one evaluation with tangents
+    assert len(trail) >= 3  # a chord converges linearly: at least two updates before the fixed point's evaluation
+    # No tangents were evaluated before the last step: the reported Jacobian stayed unknown until it.
+    assert all(np.isnan(np.asarray(c.jac)).all() for _, c in trail[:-1])
+    # Within what the rate test promises: a linear contraction leaves up to tol (Newton's would leave ~0 here).
+    np.testing.assert_allclose(end.v, FIXED_POINT, rtol=0, atol=NewtonOptions().tol)
+    np.testing.assert_allclose(end.jac, M, rtol=0, atol=1e-15)  # the gait's own Jacobian, not the guess
+
+
+def test_a_guess_that_does_not_contract_hands_over_to_newton():
+    """Guess 0: the chord step is the plain iteration ``v <- f(v)``, contracting by
+    M's spectral radius (0.76), more than :data:`CHORD_MAX_THETA`: after the second
+    chord update measures it, full Newton finishes in one more update."""
+    assert max(abs(np.linalg.eigvals(np.asarray(M)))) > CHORD_MAX_THETA
+    trail = _search(jnp.zeros((2, 2)))
+    chord = [c for c, _ in trail]
+    assert chord[:2] == [True, True] and not any(chord[2:]), chord
+    assert not bool(trail[1][1].chord)
+    end = trail[-1][1]
+    assert int(end.status) == Status.OK
+    np.testing.assert_allclose(end.v, FIXED_POINT, rtol=0, atol=1e-10)
+
+
+def test_the_compass_gait_from_its_neighbours_jacobian_is_the_gait_newton_finds():
+    """On the compass walker, from the gait at a slope 0.002 lower: with that gait's
+    Jacobian the search finds the gait full Newton finds (to 5e-9: the two stop at
+    different last iterates), with its own Jacobian; a NaN guess is full Newton."""
+    model = get_model("compass")
+    params = model.default_params()
+    lower = {**params, "gamma": params["gamma"] - 0.002}
+    neighbour = find_gait(model, lower, model.initial_guess(lower))
+    assert int(neighbour.status) == Status.OK
+    full = find_gait(model, params, neighbour.v)
+    chord = find_gait(model, params, neighbour.v, jacobian_guess=neighbour.jacobian)
+    unknown = find_gait(model, params, neighbour.v, jacobian_guess=jnp.full_like(neighbour.jacobian, jnp.nan))
+    for gait in (chord, unknown):
+        assert int(gait.status) == Status.OK
+        np.testing.assert_allclose(gait.v, full.v, rtol=0, atol=5e-9)
+        np.testing.assert_allclose(gait.jacobian, full.jacobian, rtol=0, atol=1e-6)
+        assert abs(float(gait.lambda_max) - float(full.lambda_max)) < 1e-7
+    assert not np.allclose(neighbour.jacobian, full.jacobian, rtol=0, atol=1e-6)  # the guess is not the answer
