@@ -263,7 +263,7 @@ def find_gait(
     carry0 = carry0._replace(chord=chord)
     carry0 = jax.tree_util.tree_map(lambda x: state_dependent(x, v0), carry0)  # one trace of the body under vmap
     body = _newton_iteration(step_residual(model, params, solver), newton, jnp.eye(n_v, dtype=dtype), into_section,
-                             jacobian_guess)
+                             jacobian_guess, v0)
     body = _fall_back(body, v0, fallback)
 
     def cond(c: _Newton):
@@ -298,18 +298,25 @@ class _Newton(NamedTuple):
 
 
 #: A chord update that contracts by this much or more (its size over the one before)
-#: ends the chord iterations: full Newton takes over (:func:`find_gait`'s ``jacobian_guess``).
-CHORD_MAX_THETA = 0.5
+#: ends the chord iterations: full Newton takes over from there (:func:`find_gait`'s
+#: ``jacobian_guess``; measured on the shoe walker's map: 0.001-0.023).
+CHORD_MAX_THETA = 0.25
 #: Chord iterations after which full Newton takes over.
-CHORD_MAX_ITER = 6
+CHORD_MAX_ITER = 4
 
 
 def _newton_iteration(residual, newton: NewtonOptions, eye: Array,
                       into_section: Callable[[Float[Array, "n_v"]], Float[Array, "n_v"]],
-                      jacobian_guess: Array | None = None):
+                      jacobian_guess: Array | None = None, v0: Array | None = None):
     """The body of :func:`find_gait`'s loop: one evaluation and update, the new
     iterate kept in the section (:meth:`Walker.into_section`); a chord step
-    (primal only, ``jacobian_guess - I``) where the carry says so."""
+    (primal only, ``jacobian_guess - I``) where the carry says so.
+
+    A chord step that fails (its step fails, its update is not a number, it
+    moves away, ``theta >= 1``, or it is cut to ``max_update`` or moved into the
+    section) starts the search again from ``v0`` with full Newton, its
+    iterations counted in ``spent``: where a chord goes wrong, the search is
+    the one full Newton makes from the same start."""
 
     def full(carry: _Newton):
         r, jac_r, res = value_and_jacfwd(residual, carry.v)
@@ -323,12 +330,24 @@ def _newton_iteration(residual, newton: NewtonOptions, eye: Array,
         r, res = residual(carry.v)
         return r, chord_matrix, carry.jac, res
 
+    running = jnp.int8(Status.IN_PROGRESS)
+
     def body(carry: _Newton) -> _Newton:
         chording = carry.chord & ~carry.converged
         new = _advance(carry, *jax.lax.cond(chording, chord, full, carry), newton, into_section)
-        theta = new.last_update / carry.last_update  # NaN or 0 where either is inf: no contraction measured
-        keep = chording & ~(theta >= CHORD_MAX_THETA) & (new.k < CHORD_MAX_ITER)
-        return new._replace(chord=keep)
+        theta = new.last_update / carry.last_update  # 0 after the first update (inf before it)
+        ended = (new.status != running) & (new.status != Status.OK)
+        failed = chording & (ended | ~jnp.isfinite(new.last_update) | (theta >= 1.0))
+        keep = chording & ~failed & (theta < CHORD_MAX_THETA) & (new.k < CHORD_MAX_ITER)
+        return new._replace(
+            v=jnp.where(failed, v0, new.v),
+            k=jnp.where(failed, 0, new.k),
+            status=jnp.where(failed, running, new.status),
+            converged=new.converged & ~failed,
+            last_update=jnp.where(failed, jnp.inf, new.last_update),
+            spent=new.spent + jnp.where(failed, new.k, 0),
+            chord=keep,
+        )
 
     return body
 

@@ -55,8 +55,10 @@ def segment_program(model: Walker, solver: SolverOptions, newton: NewtonOptions)
     padding visits are skipped, not masked). It returns ``(carry, gaits)`` with
     the same leading axis."""
 
-    # Chord iterations pay only where a line's program is not vmapped: one line per sub-batch.
-    chord = sub_batch_size(model, solver) == 1
+    # Chord iterations pay only where a line's program is not vmapped (one line per
+    # sub-batch), and need a section whose every point is a state: an iterate moved
+    # into the section measures no contraction, which would end every chord at once.
+    chord = sub_batch_size(model, solver) == 1 and type(model).into_section is Walker.into_section
 
     def line(params, inputs: SegmentInputs, valid):
         return continue_segment(model, params, inputs.position, inputs.restart, inputs.first, valid, inputs.carry, solver,
