@@ -4,8 +4,6 @@ while they contract, full Newton after, the tangents always at the fixed point."
 
 from __future__ import annotations
 
-from typing import NamedTuple
-
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -13,26 +11,12 @@ import numpy as np
 from jaxwalk.gait import CHORD_MAX_THETA, NewtonOptions, _Newton, _newton_iteration, find_gait
 from jaxwalk.models import get_model
 from jaxwalk.status import Status
+from tests.step_stand_in import StepStandIn
 
 #: A linear step map f(v) = M v + c: its fixed point and Jacobian are known exactly.
 M = jnp.asarray([[0.8, 0.1], [-0.2, 0.3]])
 C = jnp.asarray([0.005, -0.002])  # a fixed point 0.02 from the start: no update is cut to max_update
 FIXED_POINT = np.linalg.solve(np.eye(2) - np.asarray(M), np.asarray(C))
-
-
-class _Result(NamedTuple):
-    """What :func:`jaxwalk.gait._newton_iteration` reads of a step (a stand-in for StepResult)."""
-
-    status: jax.Array
-    time: jax.Array
-    length: jax.Array
-    work: jax.Array
-    n_events: jax.Array
-    ode_steps: jax.Array
-    phase: jax.Array
-    guard: jax.Array
-    y: jax.Array
-    ctx: jax.Array
 
 
 def _search(guess, falls_beyond: float = np.inf) -> list[tuple[bool, _Newton]]:
@@ -44,7 +28,7 @@ def _search(guess, falls_beyond: float = np.inf) -> list[tuple[bool, _Newton]]:
     def residual(v):
         fell = jnp.max(jnp.abs(v)) > falls_beyond
         status = jnp.where(fell, jnp.int8(Status.FELL), jnp.int8(Status.OK))
-        return M @ v + C - v, _Result(status, zero, zero, zero, i0, i0, i0, i0, jnp.zeros(2), jnp.zeros(1))
+        return M @ v + C - v, StepStandIn(status, zero, zero, zero, i0, i0, i0, i0, jnp.zeros(2), jnp.zeros(1))
 
     body = jax.jit(_newton_iteration(residual, NewtonOptions(), jnp.eye(2), lambda v: v, jnp.asarray(guess), jnp.zeros(2)))
     carry = _Newton(jnp.zeros(2), i0, jnp.int8(Status.IN_PROGRESS), jnp.asarray(False), jnp.full((2, 2), nan), nan, nan,

@@ -4,8 +4,6 @@ evaluation earlier where the contraction was fast, at the same gait."""
 
 from __future__ import annotations
 
-from typing import NamedTuple
-
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -15,6 +13,7 @@ from jaxwalk.gait import NewtonOptions, _Newton, _newton_iteration, _small, find
 from jaxwalk.models import get_model
 from jaxwalk.status import Status
 from jaxwalk.step import SolverOptions
+from tests.step_stand_in import StepStandIn
 
 RATE, UPDATE = NewtonOptions(), NewtonOptions(rate_test=False)
 
@@ -56,28 +55,13 @@ def test_the_rate_test_stops_where_its_bound_holds_at_the_same_gait(name, params
     assert int(gaits[False].iterations) - int(gaits[True].iterations) >= saved
 
 
-class _Result(NamedTuple):
-    """What :func:`jaxwalk.gait._newton_iteration` reads of a step (a stand-in for StepResult)."""
-
-    status: jax.Array
-    time: jax.Array
-    length: jax.Array
-    work: jax.Array
-    n_events: jax.Array
-    ode_steps: jax.Array
-    phase: jax.Array
-    guard: jax.Array
-    y: jax.Array
-    ctx: jax.Array
-
-
 def test_no_contraction_is_measured_across_a_step_cut_to_max_update():
     """A residual whose Newton update is 10 (cut to ``max_update`` = 0.2) records no
     previous update for the next rate; one of 0.1 (not cut) records 0.1. Otherwise
     the next update, 9.8, would be compared with 10 as if the iterate had moved by it.
     An update moved back into the walker's section records none either."""
     zero = jnp.zeros(())
-    result = _Result(jnp.int8(Status.OK), zero, zero, zero, jnp.int32(0), jnp.int32(0), jnp.int32(0), jnp.int32(0),
+    result = StepStandIn(jnp.int8(Status.OK), zero, zero, zero, jnp.int32(0), jnp.int32(0), jnp.int32(0), jnp.int32(0),
                      jnp.zeros(2), jnp.zeros(1))
 
     def carry_after(offset, into_section=lambda v: v):
