@@ -242,7 +242,9 @@ def find_gait(
     iterations: primal steps only, each updated with ``jacobian_guess - I``,
     until the same stopping test ends it; it goes on with full Newton where a
     chord update contracts by :data:`CHORD_MAX_THETA` or more, after
-    :data:`CHORD_MAX_ITER` of them, and after a fallback. The evaluation at the
+    :data:`CHORD_MAX_ITER` of them, and after a fallback, and starts again from
+    ``v0`` with full Newton after a chord step that fails, diverges or is cut
+    (:func:`_newton_iteration`). The evaluation at the
     converged point always carries the tangents, so the reported Jacobian is
     the gait's own. A ``lax.cond`` picks the evaluation, so this saves work only
     in a program that is not vmapped (one row per sub-batch,

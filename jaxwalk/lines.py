@@ -55,10 +55,7 @@ def segment_program(model: Walker, solver: SolverOptions, newton: NewtonOptions)
     padding visits are skipped, not masked). It returns ``(carry, gaits)`` with
     the same leading axis."""
 
-    # Chord iterations pay only where a line's program is not vmapped (one line per
-    # sub-batch), and need a section whose every point is a state: an iterate moved
-    # into the section measures no contraction, which would end every chord at once.
-    chord = sub_batch_size(model, solver) == 1 and type(model).into_section is Walker.into_section
+    chord = chord_steps(model, solver)
 
     def line(params, inputs: SegmentInputs, valid):
         return continue_segment(model, params, inputs.position, inputs.restart, inputs.first, valid, inputs.carry, solver,
@@ -75,6 +72,17 @@ def segment_program(model: Walker, solver: SolverOptions, newton: NewtonOptions)
     program = compiling.jit(program, model)
     program_cache.register(program, "continuation", model, solver, newton)
     return program
+
+
+def chord_steps(model: Walker, solver: SolverOptions) -> bool:
+    """Whether ``model``'s continuation lines start each search with chord steps
+    (:func:`~jaxwalk.continuation.continue_segment`'s ``chord``).
+
+    They pay only where a line's program is not vmapped (one line per sub-batch:
+    under ``vmap`` the ``lax.cond`` choosing the evaluation runs both), and need
+    a section whose every point is a state: an iterate moved into the section
+    measures no contraction, which would end every chord at once."""
+    return sub_batch_size(model, solver) == 1 and type(model).into_section is Walker.into_section
 
 
 def lines_per_call(chunk_size: int) -> int:

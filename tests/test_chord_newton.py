@@ -9,8 +9,10 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxwalk.gait import CHORD_MAX_THETA, NewtonOptions, _Newton, _newton_iteration, find_gait
+from jaxwalk.lines import chord_steps
 from jaxwalk.models import get_model
 from jaxwalk.status import Status
+from jaxwalk.step import SolverOptions
 from tests.step_stand_in import StepStandIn
 
 #: A linear step map f(v) = M v + c: its fixed point and Jacobian are known exactly.
@@ -105,3 +107,15 @@ def test_the_compass_gait_from_its_neighbours_jacobian_is_the_gait_newton_finds(
         np.testing.assert_allclose(gait.jacobian, full.jacobian, rtol=0, atol=1e-6)
         assert abs(float(gait.lambda_max) - float(full.lambda_max)) < 1e-6  # the shoe map: 5.6e-7
     assert not np.allclose(neighbour.jacobian, full.jacobian, rtol=0, atol=1e-6)  # the guess is not the answer
+
+
+def test_which_walkers_lines_take_chord_steps():
+    """The flat-foot walker's lines run one at a time: chord steps. The heel-rise
+    variant's section moves iterates into it: full Newton. The batched walkers
+    (and any walker on the flat engine, 64 lanes a sub-batch): full Newton."""
+    nested, flat = SolverOptions(), SolverOptions(engine="flat")
+    assert chord_steps(get_model("flatfoot"), nested)
+    assert not chord_steps(get_model("flatfoot_heel_rise"), nested)
+    assert not chord_steps(get_model("flatfoot"), flat)
+    for name in ("simplest", "compass", "kneed"):
+        assert not chord_steps(get_model(name), nested), name
