@@ -227,15 +227,20 @@ def _initial_carry(model: Walker, n_lines: int, starts: np.ndarray | None) -> Li
 
 def _neighbour_carry(gaits: Gait, positions: np.ndarray, line: np.ndarray, point: np.ndarray, side: np.ndarray) -> LineCarry:
     """The carry of one-visit lines at ``(line, point)`` (each ``(m,)``) reached
-    from their found neighbour at ``point + side``, with the gait beyond it
-    (``point + 2 side``) as the secant's second point where that one is found."""
+    from their found neighbour at ``point + side``, with the gaits beyond it
+    (``point + 2 side``, ``point + 3 side``) as the secant's second point and
+    the parabola's third where they are found."""
     v, status = np.asarray(gaits.v), np.asarray(gaits.status)
     s = np.asarray(positions, np.float64)
     n = status.shape[1]
     beyond = np.clip(point + 2 * side, 0, n - 1)
     have2 = (point + 2 * side == beyond) & (status[line, beyond] == Status.OK)
+    third = np.clip(point + 3 * side, 0, n - 1)
+    have3 = have2 & (point + 3 * side == third) & (status[line, third] == Status.OK)
     v1, have = v[line, point + side], np.ones(line.shape, bool)
     carry = fresh_carry(v1, have)
     return carry._replace(s_prev=s[point + side], last_ok=have, v_prev2=np.where(have2[:, None], v[line, beyond], 0.0),
                           s_prev2=np.where(have2, s[beyond], 0.0), have_prev2=have2,
-                          jac_prev=np.asarray(gaits.jacobian)[line, point + side])
+                          jac_prev=np.asarray(gaits.jacobian)[line, point + side],
+                          v_prev3=np.where(have3[:, None], v[line, third], 0.0), s_prev3=np.where(have3, s[third], 0.0),
+                          have_prev3=have3)

@@ -1,6 +1,7 @@
 """Chord iterations from a neighbour's Jacobian (``find_gait``'s ``jacobian_guess``,
 the flat-foot walker's continuation lines): primal steps updated with the guess
-while they contract, full Newton after, the tangents always at the fixed point."""
+while they contract, full Newton after, a probe with tangents once a chord
+update is small, and the tangents always at the reported point."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxwalk.gait import CHORD_MAX_THETA, NewtonOptions, _Newton, _newton_iteration, find_gait
+from jaxwalk.gait import CHORD_EXPECTED_THETA, CHORD_MAX_THETA, NewtonOptions, _Newton, _newton_iteration, find_gait
 from jaxwalk.lines import chord_steps
 from jaxwalk.models import get_model
 from jaxwalk.status import Status
@@ -21,10 +22,12 @@ C = jnp.asarray([0.005, -0.002])  # a fixed point 0.02 from the start: no update
 FIXED_POINT = np.linalg.solve(np.eye(2) - np.asarray(M), np.asarray(C))
 
 
-def _search(guess, falls_beyond: float = np.inf) -> list[tuple[bool, _Newton]]:
-    """Run the loop's body by hand from ``v = 0`` with ``guess`` as the chord's
-    Jacobian: ``[(a chord step, carry after), ...]`` until the search ends. The
-    step fails (``FELL``) from any ``v`` with a component beyond ``falls_beyond``."""
+def _search(guess, falls_beyond: float = np.inf, start=(0.0, 0.0)) -> list[tuple[bool, _Newton]]:
+    """Run the loop's body by hand from ``start`` with ``guess`` as the chord's
+    Jacobian: ``[(a chord step, carry after), ...]`` until the search ends (an
+    evaluation with tangents, a probe's too, is not a chord step). The step
+    fails (``FELL``) from any ``v`` with a component beyond ``falls_beyond``."""
+    start = jnp.asarray(start)
     zero, i0, nan = jnp.zeros(()), jnp.zeros((), jnp.int32), jnp.full((), jnp.nan)
 
     def residual(v):
@@ -32,13 +35,14 @@ def _search(guess, falls_beyond: float = np.inf) -> list[tuple[bool, _Newton]]:
         status = jnp.where(fell, jnp.int8(Status.FELL), jnp.int8(Status.OK))
         return M @ v + C - v, StepStandIn(status, zero, zero, zero, i0, i0, i0, i0, jnp.zeros(2), jnp.zeros(1))
 
-    body = jax.jit(_newton_iteration(residual, NewtonOptions(), jnp.eye(2), lambda v: v, jnp.asarray(guess), jnp.zeros(2)))
-    carry = _Newton(jnp.zeros(2), i0, jnp.int8(Status.IN_PROGRESS), jnp.asarray(False), jnp.full((2, 2), nan), nan, nan,
+    body = jax.jit(_newton_iteration(residual, NewtonOptions(), jnp.eye(2), lambda v: v, jnp.asarray(guess), start))
+    carry = _Newton(start, i0, jnp.int8(Status.IN_PROGRESS), jnp.asarray(False), jnp.full((2, 2), nan), nan, nan,
                     nan, i0, i0, i0 - 1, i0 - 1, jnp.zeros(2), jnp.zeros(1), jnp.asarray(False), i0, jnp.full((), jnp.inf),
                     jnp.asarray(True))
     trail = []
     while int(carry.status) == Status.IN_PROGRESS and len(trail) < 30:
-        chord_step = bool(carry.chord) and not bool(carry.converged)
+        probe = float(carry.last_update) * CHORD_EXPECTED_THETA < NewtonOptions().tol
+        chord_step = bool(carry.chord) and not bool(carry.converged) and not probe
         carry = body(carry)
         trail.append((chord_step, carry))
     return trail
@@ -87,6 +91,40 @@ def test_a_chord_step_that_fails_or_diverges_starts_the_search_again_with_newton
         np.testing.assert_array_equal(trail[restart][1].v, [0.0, 0.0])  # back at its start
         assert int(end.status) == Status.OK, falls_beyond
         np.testing.assert_allclose(end.v, FIXED_POINT, rtol=0, atol=1e-10)
+
+
+def test_a_small_chord_update_is_followed_by_a_probe_that_ends_the_search_where_it_is():
+    """From 5e-7 of the fixed point with a guess contracting by about 0.005: one
+    chord update of about 5e-7, then a probe (the tangents) whose Newton update
+    (about 2.5e-9) is below tol: the search ends at the chord's iterate, within
+    tol of the fixed point, with the map's own Jacobian; two evaluations where
+    chord steps and the rate test take three."""
+    start = FIXED_POINT + np.asarray([5e-7, -3e-7])
+    trail = _search(M + 1e-3 * jnp.asarray([[1.0, -1.0], [0.5, 2.0]]), start=start)
+    assert [c for c, _ in trail] == [True, False]
+    first, end = trail[0][1], trail[1][1]
+    assert float(first.last_update) * CHORD_EXPECTED_THETA < NewtonOptions().tol < float(first.last_update)
+    assert int(end.status) == Status.OK and int(end.k) == 2
+    np.testing.assert_array_equal(end.v, first.v)  # ended where the probe was, not one update further
+    assert 1e-10 < np.abs(np.asarray(end.v) - FIXED_POINT).max() < NewtonOptions().tol
+    np.testing.assert_allclose(end.jac, M, rtol=0, atol=1e-15)
+
+
+def test_a_probe_whose_update_is_not_small_goes_on_with_newton():
+    """A guess whose chord shrinks the error only 4x a step, from 5e-7 of the fixed
+    point: the first chord update (6.3e-7) is small enough for a probe, which
+    finds an update of 1.3e-7, takes it, and the next evaluation with tangents,
+    whose update is rounding, ends the search there: one chord step and two
+    with tangents."""
+    guess = M + 0.2 * (jnp.eye(2) - M)  # (G - I)^-1 (M - G) = -0.25 I: the chord's error shrinks 4x a step
+    start = FIXED_POINT + np.asarray([5e-7, -3e-7])
+    trail = _search(guess, start=start)
+    assert [c for c, _ in trail] == [True, False, False]
+    probe, end = trail[1][1], trail[2][1]
+    assert int(probe.status) == Status.IN_PROGRESS and float(probe.last_update) > NewtonOptions().tol
+    assert int(end.status) == Status.OK
+    np.testing.assert_allclose(end.v, FIXED_POINT, rtol=0, atol=1e-15)  # a linear map: Newton's update is exact
+    np.testing.assert_allclose(end.jac, M, rtol=0, atol=1e-15)
 
 
 def test_the_compass_gait_from_its_neighbours_jacobian_is_the_gait_newton_finds():

@@ -9,7 +9,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxwalk import configs
-from jaxwalk.continuation import after_visit, fresh_carry, secant_start
+from jaxwalk.continuation import after_visit, fresh_carry, parabola_start, secant_start
 from jaxwalk.gait import PREDICTORS, Fallback, Gait, NewtonOptions, find_gait
 from jaxwalk.lines import SEGMENT_LENGTH, _neighbour_carry, run_lines, segment_inputs
 from jaxwalk.models import get_model
@@ -54,6 +54,33 @@ def test_the_walk_down_extrapolates_from_the_seed():
     v, usable, _ = secant_start(carry, jnp.asarray(0.1), jnp.asarray(False))
     assert bool(usable)
     np.testing.assert_allclose(v, line(0.2) + (line(0.2) - line(0.3)), rtol=1e-14)
+
+
+def test_the_parabola_is_exact_on_a_quadratic_branch_and_waits_for_three_gaits():
+    """Uneven steps; not across the restart from the seed, where the walk down has
+    two gaits (the seed's and its first) until its second point down."""
+    branch = lambda s: jnp.array([1.0 + 2.0 * s - 4.0 * s**2, 3.0 * s**2])
+    two = _walk(branch, [0.1, 0.25])
+    assert bool(secant_start(two, jnp.asarray(0.4), jnp.asarray(False))[1])
+    assert not bool(parabola_start(two, jnp.asarray(0.4), jnp.asarray(False))[1])
+    three = _walk(branch, [0.1, 0.25, 0.3])
+    v, usable = parabola_start(three, jnp.asarray(0.38), jnp.asarray(False))
+    assert bool(usable)
+    np.testing.assert_allclose(v, branch(0.38), rtol=1e-13)
+    assert not bool(parabola_start(three, jnp.asarray(0.35), jnp.asarray(True))[1])  # a restart from the seed
+    assert not bool(parabola_start(three, jnp.asarray(0.2), jnp.asarray(False))[1])  # back against the walk
+    down = _walk(branch, [0.3, 0.4, 0.5, 0.2], from_seed=[False, False, False, True])
+    assert bool(secant_start(down, jnp.asarray(0.1), jnp.asarray(False))[1])
+    assert not bool(parabola_start(down, jnp.asarray(0.1), jnp.asarray(False))[1])
+    down = _walk(branch, [0.3, 0.4, 0.5, 0.2, 0.1], from_seed=[False, False, False, True, False])
+    v, usable = parabola_start(down, jnp.asarray(0.0), jnp.asarray(False))
+    assert bool(usable)
+    np.testing.assert_allclose(v, branch(0.0), rtol=1e-13, atol=1e-14)
+    failed = after_visit(three, jnp.full(2, jnp.nan), jnp.asarray(False), jnp.asarray(0.4), jnp.asarray(False),
+                         jnp.asarray(False), three.v_prev, three.have_prev, jnp.full((2, 2), jnp.nan))
+    again = _walk(branch, [0.5, 0.6])
+    assert not bool(parabola_start(failed, jnp.asarray(0.5), jnp.asarray(False))[1])
+    assert not bool(parabola_start(again, jnp.asarray(0.7), jnp.asarray(False))[1])
 
 
 def test_a_failed_visit_breaks_the_secant():
@@ -134,7 +161,8 @@ def test_segments_carry_each_visit_s_parameter_value():
 
 def test_the_fill_starts_from_the_secant_through_its_neighbours():
     """``_neighbour_carry``: from the left the neighbour is point - 1 and the
-    secant's second point point - 2, from the right point + 1 and point + 2;
+    secant's second point point - 2 (the parabola's third point - 3), from the
+    right point + 1 and point + 2 (point + 3);
     at a line's end, or where the point beyond failed, there is no secant; the
     search's chord iterations use the neighbour's Jacobian."""
     status = np.full((1, 6), Status.OK, np.int8)
@@ -152,6 +180,10 @@ def test_the_fill_starts_from_the_secant_through_its_neighbours():
     np.testing.assert_array_equal(carry.s_prev2[[0, 3, 4]], s[[0, 1, 3]])
     np.testing.assert_array_equal(carry.v_prev2[[0, 3, 4]], v[0, [0, 1, 3]])
     np.testing.assert_array_equal(carry.jac_prev, jac[0, point + side])  # the chord's matrix: the neighbour's Jacobian
+    # The parabola's third point: point - 3 from the left (only 3 has it), point + 3 from the right (1 has 4, failed).
+    np.testing.assert_array_equal(carry.have_prev3, [False, False, False, True, False, False])
+    np.testing.assert_array_equal(carry.v_prev3[3], v[0, 0])
+    assert carry.s_prev3[3] == s[0]
 
 
 def test_the_config_and_the_options_offer_the_same_predictors():
