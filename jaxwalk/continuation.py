@@ -193,13 +193,16 @@ def parabola_start(carry: LineCarry, s: Array, from_seed: Array) -> tuple[Array,
     carry's last three gaits (Lagrange extrapolation), and whether they allow it:
     the secant's conditions (:func:`secant_start`) and three consecutive
     converged visits of the walk, the step between the first two in the walk's
-    direction too. Its error is of third order in the grid step where the
+    direction too and the last at most :data:`MAX_STEP_RATIO` times it (the
+    weights grow as the ratio's square). Its error is of third order in the grid step where the
     secant's is of second: the start of a line's chord iterations
     (:func:`continue_segment`)."""
     s1, s2, s3 = carry.s_prev, carry.s_prev2, carry.s_prev3
     _, secant_ok, _ = secant_start(carry, s, from_seed)
     before = s2 - s3
-    usable = secant_ok & carry.have_prev3 & (before != 0.0) & ((s1 - s2) * before > 0.0)
+    # The last step at most MAX_STEP_RATIO times the one before, as the secant's next one.
+    ratio = (s1 - s2) / jnp.where(before != 0.0, before, 1.0)
+    usable = secant_ok & carry.have_prev3 & (before != 0.0) & (ratio > 0.0) & (ratio <= MAX_STEP_RATIO)
     d12, d13, d23 = [jnp.where(usable, d, 1.0) for d in (s1 - s2, s1 - s3, s2 - s3)]
     w1 = (s - s2) * (s - s3) / (d12 * d13)
     w2 = -(s - s1) * (s - s3) / (d12 * d23)
@@ -231,7 +234,7 @@ def after_visit(carry: LineCarry, v: Array, ok: Array, s: Array, from_seed: Arra
         seed_ok=carry.seed_ok | seeded,
         jac_prev=jnp.where(ok, jac, jnp.nan),
         jac_seed=jnp.where(seeded, jac, carry.jac_seed),
-        # The walk down has no gait before the seed's: its parabola waits for three of its own.
+        # The walk down has no gait beyond the seed's: its parabola waits for the seed's and two more.
         v_prev3=jnp.where(ok, carry.v_prev2, carry.v_prev3),
         s_prev3=jnp.where(ok, carry.s_prev2, carry.s_prev3),
         have_prev3=ok & before_ok & ~from_seed & carry.have_prev2,
@@ -265,9 +268,13 @@ def continue_segment(
         carry: from the visit before (:func:`fresh_carry` before the first).
         chord: start each search with chord iterations on the Jacobian of the
             gait it starts from (:func:`~jaxwalk.gait.find_gait`'s
-            ``jacobian_guess``): the shoe walker's map 1.31x faster, where the
-            line's program is not vmapped (benchmarks/README.md); under ``vmap``
-            it would be a ``select`` of both evaluations.
+            ``jacobian_guess``), from the parabola through the last three
+            gaits where there are three (:func:`parabola_start`): the shoe
+            walker's map 1.31x faster than full Newton with chord steps from
+            the secant, 1.18x faster again from the parabola with the probe
+            that ends them (benchmarks/README.md). Only where the line's
+            program is not vmapped: under ``vmap`` it would be a ``select`` of
+            both evaluations.
 
     Returns:
         The carry after the last visit, and a :class:`Gait` of ``(L,)`` leaves.

@@ -42,7 +42,10 @@ class NewtonOptions:
             residual's is ~1e-9 at rtol 1e-10, the update's that over the least
             singular value of ``J - I``, up to 2.5e-8 on the simplest walker's
             flattest slopes, docs/engine.md section 4); a much smaller ``tol``
-            would chase that noise and never converge.
+            would chase that noise and never converge. A search that begins
+            with chord steps (the flat-foot walker's lines) reports instead the
+            point before such an update, within about ``tol`` of the gait
+            (:func:`_newton_iteration`).
         rate_test: also converged when ``theta / (1 - theta) * |update| < tol``,
             ``theta = |update| / |previous update|`` the observed contraction
             (Hairer & Wanner, *Solving ODEs II*, IV.8): a bound on the error left
@@ -246,8 +249,9 @@ def find_gait(
     :data:`CHORD_MAX_ITER` of them, and after a fallback, and starts again from
     ``v0`` with full Newton after a chord step that fails, diverges or is cut
     (:func:`_newton_iteration`). Once a chord update is small enough, the next
-    evaluation carries the tangents (a probe), and any such evaluation whose
-    Newton update is below ``tol`` ends the search at its own iterate. The
+    evaluation carries the tangents (a probe), and in a search that began with
+    chord steps any such evaluation whose Newton update is below ``tol`` ends
+    the search at its own iterate, within about ``tol`` of the gait. The
     reported point is always one evaluated with tangents, so the reported
     Jacobian is the gait's own. A ``lax.cond`` picks the evaluation, so this saves work only
     in a program that is not vmapped (one row per sub-batch,
@@ -265,7 +269,7 @@ def find_gait(
                      zero - 1, zero - 1, jnp.full(y0.shape, jnp.nan, y0.dtype), jnp.full(ctx0.shape, jnp.nan, ctx0.dtype),
                      jnp.asarray(fallback.use, bool), zero, jnp.full((), jnp.inf, dtype))
     chord = jnp.asarray(False) if jacobian_guess is None else jnp.all(jnp.isfinite(jacobian_guess))
-    carry0 = carry0._replace(chord=chord)
+    carry0 = carry0._replace(chord=chord, chorded=chord)
     carry0 = jax.tree_util.tree_map(lambda x: state_dependent(x, v0), carry0)  # one trace of the body under vmap
     body = _newton_iteration(step_residual(model, params, solver), newton, jnp.eye(n_v, dtype=dtype), into_section,
                              jacobian_guess, v0)
@@ -300,19 +304,22 @@ class _Newton(NamedTuple):
     spent: Array  # int32, iterations of a search abandoned for the fallback
     last_update: Array  # the previous update's size in this search (inf before the first)
     chord: Array = False  # bool: the next iteration is a chord step (find_gait's jacobian_guess)
+    chorded: Array = False  # bool: the search began with chord steps and has not started again (_newton_iteration)
 
 
 #: A chord update that contracts by this much or more (its size over the one before)
 #: ends the chord iterations: full Newton takes over from there (:func:`find_gait`'s
-#: ``jacobian_guess``; measured on the shoe walker's map: 0.001-0.023).
+#: ``jacobian_guess``; on the shoe walker's map, from the secant's start: 0.001-0.023).
 CHORD_MAX_THETA = 0.25
 #: Chord iterations after which full Newton takes over.
 CHORD_MAX_ITER = 4
-#: The chord's contraction expected before one is measured (its update over the
-#: one before; on the shoe walker's map lines from the parabola through three
-#: gaits: median 0.008, 90 % below 0.017). Once the last chord update times it
-#: is below ``tol``, the next evaluation carries the tangents (a probe): where its
-#: Newton update is below ``tol`` too, the search ends there (:func:`_newton_iteration`).
+#: The contraction a chord step is taken to leave (the error after it over its
+#: update): a fixed guess, not the search's measured contraction (on the shoe
+#: walker's map lines from the parabola through three gaits: median 0.008, 90 %
+#: below 0.017, benchmarks/results/chord_probe.json). Once the last chord update
+#: times it is below ``tol``, the next evaluation carries the tangents (a probe):
+#: where its Newton update is below ``tol`` too, the search ends there
+#: (:func:`_newton_iteration`).
 CHORD_EXPECTED_THETA = 0.01
 
 
@@ -331,16 +338,21 @@ def _newton_iteration(residual, newton: NewtonOptions, eye: Array,
 
     Where the last chord update times :data:`CHORD_EXPECTED_THETA` is below
     ``tol`` (the iterate is likely within ``tol`` of the gait), the next
-    evaluation carries the tangents instead of being a chord step: a probe (a
-    probe that fails or moves away restarts from ``v0`` as a chord step does).
-    In this search any evaluation with tangents, a probe or full Newton's,
-    whose Newton update is below ``tol`` ends the search at its own iterate:
-    the update, made with the iterate's own Jacobian, is its distance to the
-    gait to second order, so the iterate is as close to the gait as the
-    chord's rate test guarantees, and its Jacobian, period and step are the
-    reported ones. A probe that ends the search saves the primal step after
-    which the rate test would have stopped the chord and the evaluation with
-    tangents at its end."""
+    evaluation carries the tangents instead of being a chord step: a probe. A
+    probe whose step fails, or whose update is not a number or is cut, starts
+    the search again from ``v0`` as a failed chord step does; otherwise its
+    update is Newton's own and is taken. In a search that began with chord
+    steps (and has not started again, from ``v0`` or its fallback), any
+    evaluation with tangents, a probe or full Newton's after it, whose Newton
+    update is below ``tol`` ends the search at its own iterate: the update,
+    made with the iterate's own Jacobian, is the iterate's distance to the
+    gait to second order, so the iterate lies within about ``tol`` of the gait
+    (plus the step map's noise), as the chord's rate test allows, and its
+    Jacobian, period and step are the reported ones. A probe that ends the
+    search saves the primal step after which the rate test would have stopped
+    the chord and the evaluation with tangents at its end. A search without
+    chord steps ends as Newton's does, one update past its last evaluation's
+    and then evaluated there."""
 
     def full(carry: _Newton):
         r, jac_r, res = value_and_jacfwd(residual, carry.v)
@@ -363,9 +375,12 @@ def _newton_iteration(residual, newton: NewtonOptions, eye: Array,
         new = _advance(carry, *jax.lax.cond(chording, chord, full, carry), newton, into_section)
         theta = new.last_update / carry.last_update  # 0 after the first update (inf before it)
         ended = (new.status != running) & (new.status != Status.OK)
-        failed = on_chord & (ended | ~jnp.isfinite(new.last_update) | (theta >= 1.0))
-        # An evaluation with tangents whose Newton update is below tol ends the search at its own iterate.
-        there = ~chording & ~carry.converged & ~failed & (new.status == running) & (new.last_update < newton.tol)
+        # A probe's update is Newton's own, so only a failed step or an update not taken as made fails it.
+        failed = on_chord & (ended | ~jnp.isfinite(new.last_update) | (chording & (theta >= 1.0)))
+        # In a search that began with chord steps, an evaluation with tangents
+        # whose Newton update is below tol ends it at its own iterate.
+        there = (carry.chorded & ~chording & ~carry.converged & ~failed & (new.status == running)
+                 & (new.last_update < newton.tol))
         keep = chording & ~failed & (theta < CHORD_MAX_THETA) & (new.k < CHORD_MAX_ITER)
         return new._replace(
             v=jnp.where(failed, v0, jnp.where(there, carry.v, new.v)),
@@ -375,6 +390,7 @@ def _newton_iteration(residual, newton: NewtonOptions, eye: Array,
             last_update=jnp.where(failed, jnp.inf, new.last_update),
             spent=new.spent + jnp.where(failed, new.k, 0),
             chord=keep,
+            chorded=carry.chorded & ~failed,
         )
 
     return body
@@ -389,7 +405,9 @@ def _advance(carry: _Newton, r: Array, jac_r: Array, jac: Array, res, newton: Ne
     # converged point and only records it: J, period and length are reported at
     # the fixed point itself, not at the last iterate (the step map is strongly
     # curved near the separatrix, second derivatives ~1e3 for the simplest
-    # walker, so 1e-8 matters for J).
+    # walker, so 1e-8 matters for J). Searches that begin with chord steps end
+    # one update earlier (_newton_iteration): the flat-foot walker's map, whose
+    # lines take them, moved lambda_max by 8.4e-7 that way.
     v, k, converged = carry.v, carry.k, carry.converged
     update = -mechanics.solve(jac_r, r)  # unrolled for small n_v (mechanics.solve)
     size = jnp.max(jnp.abs(update))
@@ -473,6 +491,7 @@ def _fall_back(body, v0: Array, fallback: Fallback):
             converged=new.converged & ~retry,
             last_update=jnp.where(retry, jnp.inf, new.last_update),
             chord=new.chord & ~retry,
+            chorded=new.chorded & ~retry,
             has_fallback=carry.has_fallback & ~retry,
             spent=new.spent + jnp.where(retry, new.k, 0),
         )

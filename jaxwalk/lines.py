@@ -149,8 +149,10 @@ def fill_from_neighbours(model: Walker, lines: Mapping[str, np.ndarray], positio
     gait makes its other neighbour a candidate. Block-independent: a line's
     result depends on its own points only. Each search starts on the secant
     through the neighbour's gait and the one beyond it where that is found too
-    (``NewtonOptions.predictor``), with the neighbour's gait as the fallback:
-    as the walk did past its first two points in that direction.
+    (``NewtonOptions.predictor``; on lines that take chord steps, on the
+    parabola through those and the next one beyond where all three are found),
+    with the neighbour's gait as the fallback: as the walk did past its first
+    points in that direction.
 
     Args:
         lines: the parameters, ``(n_lines, n)`` each; ``gaits``: their

@@ -8,6 +8,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 from jaxwalk.gait import CHORD_EXPECTED_THETA, CHORD_MAX_THETA, NewtonOptions, _Newton, _newton_iteration, find_gait
 from jaxwalk.lines import chord_steps
@@ -22,23 +23,24 @@ C = jnp.asarray([0.005, -0.002])  # a fixed point 0.02 from the start: no update
 FIXED_POINT = np.linalg.solve(np.eye(2) - np.asarray(M), np.asarray(C))
 
 
-def _search(guess, falls_beyond: float = np.inf, start=(0.0, 0.0)) -> list[tuple[bool, _Newton]]:
+def _search(guess, falls_beyond: float = np.inf, start=(0.0, 0.0), falls_below=-np.inf) -> list[tuple[bool, _Newton]]:
     """Run the loop's body by hand from ``start`` with ``guess`` as the chord's
     Jacobian: ``[(a chord step, carry after), ...]`` until the search ends (an
     evaluation with tangents, a probe's too, is not a chord step). The step
-    fails (``FELL``) from any ``v`` with a component beyond ``falls_beyond``."""
+    fails (``FELL``) from any ``v`` with a component beyond ``falls_beyond``,
+    or with its first below ``falls_below``."""
     start = jnp.asarray(start)
     zero, i0, nan = jnp.zeros(()), jnp.zeros((), jnp.int32), jnp.full((), jnp.nan)
 
     def residual(v):
-        fell = jnp.max(jnp.abs(v)) > falls_beyond
+        fell = (jnp.max(jnp.abs(v)) > falls_beyond) | (v[0] < falls_below)
         status = jnp.where(fell, jnp.int8(Status.FELL), jnp.int8(Status.OK))
         return M @ v + C - v, StepStandIn(status, zero, zero, zero, i0, i0, i0, i0, jnp.zeros(2), jnp.zeros(1))
 
     body = jax.jit(_newton_iteration(residual, NewtonOptions(), jnp.eye(2), lambda v: v, jnp.asarray(guess), start))
     carry = _Newton(start, i0, jnp.int8(Status.IN_PROGRESS), jnp.asarray(False), jnp.full((2, 2), nan), nan, nan,
                     nan, i0, i0, i0 - 1, i0 - 1, jnp.zeros(2), jnp.zeros(1), jnp.asarray(False), i0, jnp.full((), jnp.inf),
-                    jnp.asarray(True))
+                    jnp.asarray(True), jnp.asarray(True))
     trail = []
     while int(carry.status) == Status.IN_PROGRESS and len(trail) < 30:
         probe = float(carry.last_update) * CHORD_EXPECTED_THETA < NewtonOptions().tol
@@ -110,27 +112,48 @@ def test_a_small_chord_update_is_followed_by_a_probe_that_ends_the_search_where_
     np.testing.assert_allclose(end.jac, M, rtol=0, atol=1e-15)
 
 
-def test_a_probe_whose_update_is_not_small_goes_on_with_newton():
-    """A guess whose chord shrinks the error only 4x a step, from 5e-7 of the fixed
-    point: the first chord update (6.3e-7) is small enough for a probe, which
-    finds an update of 1.3e-7, takes it, and the next evaluation with tangents,
-    whose update is rounding, ends the search there: one chord step and two
-    with tangents."""
-    guess = M + 0.2 * (jnp.eye(2) - M)  # (G - I)^-1 (M - G) = -0.25 I: the chord's error shrinks 4x a step
+@pytest.mark.parametrize("factor", [-0.25, 0.6])
+def test_a_probe_whose_update_is_not_small_goes_on_with_newton(factor):
+    """A guess whose chord step multiplies the error by ``factor`` (an overshoot
+    shrinking it 4x; a slow chord keeping 60 % of it), from 5e-7 of the fixed
+    point: the first chord update (1.25 and 0.4 times 5e-7) is small enough for
+    a probe, which finds an update above tol and takes it (Newton's own, even
+    where it is larger than the chord's), and the next evaluation with
+    tangents, whose update is rounding, ends the search there: one chord step
+    and two with tangents, no start again."""
+    guess = jnp.eye(2) + (M - jnp.eye(2)) / (1 - factor)  # chord error (G - I)^-1 (G - M) e = factor e
     start = FIXED_POINT + np.asarray([5e-7, -3e-7])
     trail = _search(guess, start=start)
     assert [c for c, _ in trail] == [True, False, False]
     probe, end = trail[1][1], trail[2][1]
     assert int(probe.status) == Status.IN_PROGRESS and float(probe.last_update) > NewtonOptions().tol
-    assert int(end.status) == Status.OK
+    assert int(end.status) == Status.OK and int(end.spent) == 0
     np.testing.assert_allclose(end.v, FIXED_POINT, rtol=0, atol=1e-15)  # a linear map: Newton's update is exact
     np.testing.assert_allclose(end.jac, M, rtol=0, atol=1e-15)
 
 
+def test_a_probe_whose_step_fails_starts_the_search_again_with_newton():
+    """The chord's iterate lies where the step fails (its first component 1.25e-7
+    below the fixed point's): the probe fails, the search starts again from its
+    start with full Newton, and, begun again, ends as Newton's does: one update
+    past its last evaluation's, evaluated there (the fixed point itself here)."""
+    start = FIXED_POINT + np.asarray([5e-7, -3e-7])
+    guess = jnp.eye(2) + (M - jnp.eye(2)) / 1.25  # the chord overshoots: error factor -0.25
+    trail = _search(guess, start=start, falls_below=FIXED_POINT[0] - 1e-8)
+    assert [c for c, _ in trail][:2] == [True, False] and not any(c for c, _ in trail[1:])
+    restart = trail[1][1]
+    np.testing.assert_array_equal(restart.v, start)
+    assert int(restart.spent) == 2 and int(restart.k) == 0 and not bool(restart.chorded)
+    end = trail[-1][1]
+    assert int(end.status) == Status.OK and len(trail) == 5  # two Newton updates, then the evaluation at the end
+    np.testing.assert_allclose(end.v, FIXED_POINT, rtol=0, atol=1e-15)
+
+
 def test_the_compass_gait_from_its_neighbours_jacobian_is_the_gait_newton_finds():
     """On the compass walker, from the gait at a slope 0.002 lower: with that gait's
-    Jacobian the search finds the gait full Newton finds (to 5e-9: the two stop at
-    different last iterates), with its own Jacobian; a NaN guess is full Newton."""
+    Jacobian the search finds the gait full Newton finds, to ``tol`` (it may end
+    at a probe within ``tol`` of the gait, where Newton goes one update
+    further), with its own Jacobian; a NaN guess is full Newton, the same gait."""
     model = get_model("compass")
     params = model.default_params()
     lower = {**params, "gamma": params["gamma"] - 0.002}
@@ -139,9 +162,9 @@ def test_the_compass_gait_from_its_neighbours_jacobian_is_the_gait_newton_finds(
     full = find_gait(model, params, neighbour.v)
     chord = find_gait(model, params, neighbour.v, jacobian_guess=neighbour.jacobian)
     unknown = find_gait(model, params, neighbour.v, jacobian_guess=jnp.full_like(neighbour.jacobian, jnp.nan))
-    for gait in (chord, unknown):
+    for gait, bound in ((chord, NewtonOptions().tol), (unknown, 1e-12)):
         assert int(gait.status) == Status.OK
-        np.testing.assert_allclose(gait.v, full.v, rtol=0, atol=5e-9)
+        np.testing.assert_allclose(gait.v, full.v, rtol=0, atol=bound)
         np.testing.assert_allclose(gait.jacobian, full.jacobian, rtol=0, atol=1e-6)
         assert abs(float(gait.lambda_max) - float(full.lambda_max)) < 1e-6  # the shoe map: 5.6e-7
     assert not np.allclose(neighbour.jacobian, full.jacobian, rtol=0, atol=1e-6)  # the guess is not the answer

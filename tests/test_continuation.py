@@ -20,9 +20,10 @@ SIMPLEST = get_model("simplest")
 SOLVER = SolverOptions()
 
 
-def _walk(v_of_s, positions, from_seed=None):
-    """The carry after visiting ``positions`` in order, each converging to ``v_of_s(s)``."""
-    carry = fresh_carry(jnp.zeros(2), jnp.asarray(False))
+def _walk(v_of_s, positions, from_seed=None, carry=None):
+    """The carry after visiting ``positions`` in order (after ``carry``'s visits,
+    if given), each converging to ``v_of_s(s)``."""
+    carry = fresh_carry(jnp.zeros(2), jnp.asarray(False)) if carry is None else carry
     from_seed = from_seed or [False] * len(positions)
     for k, (s, seed) in enumerate(zip(positions, from_seed)):
         carry = after_visit(carry, v_of_s(s), jnp.asarray(True), jnp.asarray(s), jnp.asarray(seed), jnp.asarray(k == 0),
@@ -76,11 +77,22 @@ def test_the_parabola_is_exact_on_a_quadratic_branch_and_waits_for_three_gaits()
     v, usable = parabola_start(down, jnp.asarray(0.0), jnp.asarray(False))
     assert bool(usable)
     np.testing.assert_allclose(v, branch(0.0), rtol=1e-13, atol=1e-14)
+    # After a failed visit the parabola waits for three more gaits, the secant for two.
     failed = after_visit(three, jnp.full(2, jnp.nan), jnp.asarray(False), jnp.asarray(0.4), jnp.asarray(False),
                          jnp.asarray(False), three.v_prev, three.have_prev, jnp.full((2, 2), jnp.nan))
-    again = _walk(branch, [0.5, 0.6])
-    assert not bool(parabola_start(failed, jnp.asarray(0.5), jnp.asarray(False))[1])
+    again = _walk(branch, [0.5, 0.6], carry=failed)
+    assert bool(secant_start(again, jnp.asarray(0.7), jnp.asarray(False))[1])
     assert not bool(parabola_start(again, jnp.asarray(0.7), jnp.asarray(False))[1])
+    again = _walk(branch, [0.7], carry=again)
+    v, usable = parabola_start(again, jnp.asarray(0.8), jnp.asarray(False))
+    assert bool(usable)
+    np.testing.assert_allclose(v, branch(0.8), rtol=1e-13)
+    # A last step far longer than the one before would weigh the gaits by about
+    # the square of the ratio: more than MAX_STEP_RATIO (2) and the secant starts.
+    uneven = _walk(branch, [0.1, 0.1001, 0.3])
+    assert bool(secant_start(uneven, jnp.asarray(0.35), jnp.asarray(False))[1])
+    assert not bool(parabola_start(uneven, jnp.asarray(0.35), jnp.asarray(False))[1])
+    assert bool(parabola_start(_walk(branch, [0.1, 0.2, 0.39]), jnp.asarray(0.45), jnp.asarray(False))[1])
 
 
 def test_a_failed_visit_breaks_the_secant():
