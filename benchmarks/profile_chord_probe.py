@@ -71,7 +71,9 @@ def _iteration(carry: _Newton, params: dict, v0, jacobian) -> _Newton:
 def evaluations(iteration, params: dict, v0: np.ndarray, jacobian: np.ndarray) -> tuple[str, np.ndarray]:
     """The kinds of evaluation one search took (``c`` chord, ``t`` tangents) and where it ended."""
     nan, i0 = jnp.full((), jnp.nan, jnp.float64), jnp.zeros((), jnp.int32)  # not weak-typed: one compile
-    y, _, ctx = MODEL.section_to_state(jnp.asarray(v0), params)
+    # Shapes only: an eager call would compile its fori_loop anew on every search
+    # (a fresh body each time), and every such executable stays mapped in memory.
+    y, _, ctx = jax.eval_shape(MODEL.section_to_state, jnp.asarray(v0), params)
     carry = _Newton(jnp.asarray(v0), i0, jnp.int8(Status.IN_PROGRESS), jnp.asarray(False), jnp.full((2, 2), nan), nan,
                     nan, nan, i0, i0, i0 - 1, i0 - 1, jnp.full(y.shape, nan), jnp.full(ctx.shape, nan), jnp.asarray(False),
                     i0, jnp.full((), jnp.inf, jnp.float64), jnp.asarray(True), jnp.asarray(True))
@@ -107,10 +109,6 @@ def main() -> None:
                                  chord_error=float(np.abs(chord - truth).max()),
                                  probe_update=float(probe_update)))
         print(f"l_f {l_f:.4f}: {len(found)} gaits", flush=True)
-    # Each large program maps its kernels' code separately: free the three above
-    # before the loop's (with them alive the process ran out of memory maps).
-    del search, primal, tangents
-    jax.clear_caches()
     iteration = jax.jit(_iteration)
     for l_f, found in lines.items():
         for k in sorted(found):
