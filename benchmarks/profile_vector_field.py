@@ -59,12 +59,22 @@ def per_call(fn, y, *args) -> tuple[float, object]:
     return best(program, y, *args) / CALLS * 1e6, program
 
 
-def kernels(program, *args) -> int:
-    """Fusions and custom calls in the body of ``program``'s outer while loop."""
+def kernels(program, *args) -> tuple[int, dict]:
+    """Fusions and custom calls in the body of ``program``'s outer while loop, and
+    how many come from each transformation of the model's code (the op name's
+    path inside the loop body, last element dropped: ``vmap(jvp())`` the point
+    masses' Jacobian, ``jvp(jvp())`` the constraints' convective terms, ...)."""
     text = program.lower(*args).compile().as_text()
     body = re.search(r"body=(%[\w.\-]+)", text.split("ENTRY")[1]).group(1)
     block = re.search(re.escape(body) + r" .*?\n}\n", text, re.S).group(0)
-    return len(re.findall(r"= \S+ (?:fusion|custom-call)\(", block))
+    lines = [line for line in block.splitlines() if re.search(r"= \S+ (?:fusion|custom-call)\(", line)]
+    sources: dict = {}
+    for line in lines:
+        name = re.search(r'op_name="([^"]*)"', line)
+        path = name.group(1).split("/while/body/")[-1].split("/")[1:-1] if name else []
+        key = "/".join(path) or "(top)"
+        sources[key] = sources.get(key, 0) + 1
+    return len(lines), dict(sorted(sources.items(), key=lambda kv: -kv[1]))
 
 
 def kkt_pieces(n: int = 15) -> dict:
@@ -106,8 +116,9 @@ def main() -> None:
             "vector_field_us": vf_us,
             "vector_field_constant_phase_us": per_call(lambda y_, p, c: field(y_, p, ph, c), y, params, ctx)[0],
             "guards_us": per_call(guards, y, params, traced, ctx)[0],
-            "vector_field_kernels": kernels(vf_loop, y, params, traced, ctx),
         }
+        count, sources = kernels(vf_loop, y, params, traced, ctx)
+        out["phases"][MODEL.phases[ph]].update(vector_field_kernels=count, kernels_by_source=sources)
         print(MODEL.phases[ph], out["phases"][MODEL.phases[ph]], flush=True)
     out["kkt_15_us"] = kkt_pieces()
     print({k: v for k, v in out.items() if k != "phases"})
