@@ -160,7 +160,7 @@ def test_simplest_optimum_confirmed_by_a_fine_grid():
 @pytest.mark.slow
 @pytest.mark.skipif(
     not os.environ.get("JAXWALK_FLATFOOT_GRADIENT"),
-    reason="tracing and compiling the flat-foot walker's second-order program takes about 5 min on two cores "
+    reason="tracing and compiling the flat-foot walker's second-order program takes about 4 min on two cores "
     "(benchmarks/README.md); set JAXWALK_FLATFOOT_GRADIENT=1 to run",
 )
 def test_flatfoot_lambda_max_fixed_point_and_cost_of_transport():
