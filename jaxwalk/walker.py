@@ -3,9 +3,10 @@ guards that end them, and resets that follow.
 
 A concrete model subclasses :class:`Walker` and says *where its masses are* and
 *which constraints hold in which phase*; the equations of motion, energies and
-impacts come from :mod:`jaxwalk.mechanics`. The model object is static Python
-(shapes, names, which phase uses which constraints); every number that may be
-swept is a leaf of the ``params`` dict.
+impacts come from :mod:`jaxwalk.mechanics` (from :mod:`jaxwalk.chain` in closed
+form where the model gives :meth:`Walker.chain_weights`). The model object is
+static Python (shapes, names, which phase uses which constraints); every number
+that may be swept is a leaf of the ``params`` dict.
 
 Conventions shared by every model
 ---------------------------------
@@ -55,7 +56,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float, Int8, Int32
 
-from jaxwalk import mechanics
+from jaxwalk import chain, mechanics
 from jaxwalk.errors import ConfigError
 from jaxwalk.parameters import ParamSpec
 
@@ -258,6 +259,13 @@ class Walker:
         """*model* ``(n_points,)`` the point masses."""
         raise NotImplementedError
 
+    def chain_weights(self, params: Params) -> Float[Array, "n_points n_angles"] | None:
+        """``S`` ``(n_points, n_q - 2)`` (lengths) where :meth:`points` is ``hip + S
+        (sin a, -cos a)``: the mass matrix and forces then come in closed form
+        (:mod:`jaxwalk.chain`); ``None`` (the default): from derivatives of
+        :meth:`points`."""
+        return None
+
     def gravity(self, params: Params) -> Array:
         """``(2,)`` gravity in the slope frame, ``g (sin gamma, -cos gamma)``."""
         g = params.get("g", 1.0)
@@ -423,7 +431,9 @@ class Walker:
     def constraint_terms(self, q: Array, qd: Array, params: Params, ctx: Array) -> tuple[Array, Array]:
         """``Sigma`` ``(n_c, n_q)`` and ``Psi`` ``(n_c,)`` (paper eqs. 3-4); ``Sigma``
         in the form the walker's mass matrix takes (:func:`mechanics.entrywise`,
-        decided by the point masses, so one walker builds all its dynamics alike)."""
+        decided by the point masses, so one walker builds all its dynamics alike).
+        A model may write both by hand (the flat-foot walkers', from
+        :mod:`jaxwalk.chain`), tested against this default (tests/test_chain.py)."""
         xi = lambda q_: self.constraints(q_, params, ctx)
         n_coordinates = math.prod(jax.eval_shape(lambda q_: self.points(q_, params), q).shape)
         sigma = mechanics.jacobian(xi, q, mechanics.entrywise(self.n_q, n_coordinates)).T
@@ -433,8 +443,11 @@ class Walker:
         """Accelerations ``(n_q,)`` and constraint forces ``(n_c,)`` in ``phase``."""
         q, qd = self.split(y)
         pts = lambda q_: self.points(q_, params)
-        masses = self.masses(params)
-        mass, forces = mechanics.mass_matrix_and_forces(pts, masses, self.gravity(params), q, qd)
+        masses, weights = self.masses(params), self.chain_weights(params)
+        if weights is None:
+            mass, forces = mechanics.mass_matrix_and_forces(pts, masses, self.gravity(params), q, qd)
+        else:
+            mass, forces = chain.mass_matrix_and_forces(weights, masses, self.gravity(params), q, qd)
         forces = forces + self.joint_forces(q, qd, params, phase, ctx)
         sigma, psi = self.constraint_terms(q, qd, params, ctx)
         # A mask that does not depend on traced values (one constant for all
@@ -452,8 +465,11 @@ class Walker:
     def apply_impact(self, y: Array, params: Params, ctx: Array, mask: Array) -> tuple[Array, Array]:
         """Inelastic impact onto the constraints in ``mask``: new ``y`` and impulses."""
         q, qd = self.split(y)
-        pts = lambda q_: self.points(q_, params)
-        mass = mechanics.mass_matrix(pts, self.masses(params), q)
+        weights = self.chain_weights(params)
+        if weights is None:
+            mass = mechanics.mass_matrix(lambda q_: self.points(q_, params), self.masses(params), q)
+        else:
+            mass = chain.mass_matrix(weights, self.masses(params), q)
         sigma, _ = self.constraint_terms(q, qd, params, ctx)
         qd_plus, impulses = mechanics.impact(mass, qd, sigma, mask)
         return jnp.concatenate([q, qd_plus]), impulses

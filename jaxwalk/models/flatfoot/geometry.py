@@ -92,6 +92,21 @@ def points(q: Array, params) -> Array:
     return jnp.stack(out)
 
 
+def chain_weights(params) -> Array:
+    """``(11, 4)`` :func:`points` as ``hip + S (sin a, -cos a)`` over the angles
+    ``(thigh_1, shank_1, thigh_2, shank_2)`` (:mod:`jaxwalk.chain`)."""
+    l_t, l_s = params["l_t"], params["l_s"]
+    g_t, g_s = params["rho_t"] * l_t, params["rho_s"] * l_s
+    c_t, c_s = params["c_t"] * l_t, params["c_s"] * l_s
+    zero = jnp.zeros_like(l_t)
+    # One leg's five points over that leg's (thigh, shank) angles.
+    leg = [(c_t - g_t, zero), (c_t + g_t, zero), (l_t, c_s - g_s), (l_t, c_s + g_s), (l_t, l_s)]
+    rows = [[zero] * 4]
+    rows += [[thigh, shank, zero, zero] for thigh, shank in leg]
+    rows += [[zero, zero, thigh, shank] for thigh, shank in leg]
+    return jnp.stack([jnp.stack(row) for row in rows])
+
+
 def masses(params) -> Array:
     """``(11,)`` point masses: hip, then thigh (two halves), shank (two halves), foot of each leg."""
     half_t, half_s = 0.5 * params["m_t"], 0.5 * params["m_s"]

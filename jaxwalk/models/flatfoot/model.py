@@ -175,11 +175,17 @@ class FlatFootWalker(Walker):
     def masses(self, params):
         return geo.masses(params)
 
+    def chain_weights(self, params):
+        return geo.chain_weights(params)
+
     def constraints(self, q, params, ctx):
         return ph.constraints(q, params, ctx)
 
     def constraint_mask(self, phase, params):
         return ph.PHASE_MASKS[phase]
+
+    def constraint_terms(self, q, qd, params, ctx):
+        return ph.constraint_terms(q, qd, params, ctx)
 
     def joint_forces(self, q, qd, params, phase, ctx):
         return forces.joint_forces(q, params, phase, ctx, self.heel_rise)
