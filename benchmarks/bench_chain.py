@@ -3,9 +3,9 @@
 The flat-foot walker declares itself a chain (:mod:`jaxwalk.chain`: mass
 matrix and forces in closed form) and writes its constraint Jacobian and
 ``Psi`` by hand. Its twin here takes both from automatic derivatives of
-``points`` and ``constraints`` (the engine's default). At the shoe gait (the
-defaults), one configuration, not vmapped (as the flat-foot walker's lines
-run), on one core:
+``points`` and ``constraints`` (the engine's default; ``automatic_twin`` of
+tests/test_chain.py). At the shoe gait (the defaults), one configuration, not
+vmapped (as the flat-foot walker's lines run), on one core:
 
 * the vector field per call (a loop of 4000 calls) and its XLA kernels;
 * the primal step map, and the step with two tangents (``jax.jacfwd`` of the
@@ -40,20 +40,10 @@ from profile_vector_field import kernels, per_call  # noqa: E402
 from jaxwalk.gait import find_gait  # noqa: E402
 from jaxwalk.models.flatfoot.model import FlatFootWalker  # noqa: E402
 from jaxwalk.step import SolverOptions, step_map  # noqa: E402
-from jaxwalk.walker import Walker  # noqa: E402
+from tests.test_chain import automatic_twin  # noqa: E402
 
 
-class AutodiffFlatFootWalker(FlatFootWalker):
-    """The flat-foot walker with its dynamics from automatic derivatives (the engine's default path)."""
-
-    def chain_weights(self, params):
-        return None
-
-    def constraint_terms(self, q, qd, params, ctx):
-        return Walker.constraint_terms(self, q, qd, params, ctx)
-
-
-FORMS = {"closed": FlatFootWalker(), "autodiff": AutodiffFlatFootWalker()}
+FORMS = {"closed": FlatFootWalker(), "autodiff": automatic_twin(FlatFootWalker())}
 
 
 def timed(fn, *args) -> float:

@@ -106,6 +106,21 @@ def _states(model, params, n=4, seed=0):
             for _ in range(n)]
 
 
+def automatic_twin(model: Walker) -> Walker:
+    """``model`` with its mass matrix, forces and constraint terms from automatic
+    derivatives (the engine's default path): what its closed forms replace."""
+
+    class Automatic(type(model)):
+        def chain_weights(self, params):
+            return None
+
+        def constraint_terms(self, q, qd, params, ctx):
+            return Walker.constraint_terms(self, q, qd, params, ctx)
+
+    Automatic.__name__ = f"Automatic{type(model).__name__}"
+    return Automatic()
+
+
 def test_the_flat_foot_walkers_are_chains_with_hand_written_constraint_terms():
     assert {"flatfoot", "flatfoot_heel_rise"} <= set(CHAINS) & set(HAND_WRITTEN)
 
@@ -141,3 +156,29 @@ def test_hand_written_constraint_terms_equal_the_automatic_ones(name):
         (sigma_auto, psi_auto), (sigma, psi) = both(q, qd, ctx)
         np.testing.assert_allclose(sigma, sigma_auto, rtol=0, atol=TOL)
         np.testing.assert_allclose(psi, psi_auto, rtol=0, atol=TOL * max(1.0, float(jnp.max(jnp.abs(psi_auto)))))
+
+
+@pytest.mark.parametrize("name", sorted(set(CHAINS) | set(HAND_WRITTEN)))
+def test_dynamics_impacts_and_their_parameter_derivatives_equal_the_automatic_twins(name):
+    """The closed forms as the engine uses them: ``Walker.dynamics`` and
+    ``Walker.apply_impact`` in every phase (traced, as in a step), and the
+    accelerations' forward derivative in the parameters, against the model's
+    :func:`automatic_twin`."""
+    model = MODELS[name]
+    twin = automatic_twin(model)
+    params = _other_params(model)
+
+    def terms(walker, params, y, phase, ctx):
+        qdd, lam = walker.dynamics(y, params, phase, ctx)
+        y_plus, impulses = walker.apply_impact(y, params, ctx, walker.constraint_mask(phase, params))
+        return qdd, lam, y_plus, impulses
+
+    def both(params, y, phase, ctx):
+        d_qdd = lambda walker: jax.jacfwd(lambda p: walker.dynamics(y, p, phase, ctx)[0])(params)  # noqa: E731
+        return (terms(model, params, y, phase, ctx), d_qdd(model)), (terms(twin, params, y, phase, ctx), d_qdd(twin))
+
+    both = jax.jit(both)
+    for (q, qd, ctx), phase in zip(_states(model, params, n=len(model.phases), seed=2), range(len(model.phases))):
+        closed, automatic = both(params, jnp.concatenate([q, qd]), jnp.int32(phase), ctx)
+        for a, b in zip(jax.tree_util.tree_leaves(closed), jax.tree_util.tree_leaves(automatic)):
+            np.testing.assert_allclose(a, b, rtol=0, atol=TOL * (1.0 + float(jnp.max(jnp.abs(b)))))

@@ -16,6 +16,7 @@ import pytest
 from jaxwalk import mechanics
 from jaxwalk.models import get_model
 from jaxwalk.step import step_map
+from jaxwalk.walker import Walker
 
 MODEL = get_model("compass")
 PARAMS = MODEL.default_params()
@@ -238,9 +239,11 @@ def test_a_singular_kkt_system_gives_nan_not_finite_garbage():
 
 @pytest.mark.parametrize("name", sorted(__import__("jaxwalk.models", fromlist=["MODELS"]).MODELS))
 def test_entrywise_and_stacked_dynamics_agree(name, monkeypatch):
-    """Both forms of the dynamics (``mechanics.ENTRYWISE_MAX``) give every walker the
-    same mass matrix, forces, constraint Jacobian and accelerations at a generic state:
-    they differ only in the order of their sums."""
+    """Both forms of the automatic derivatives (``mechanics.ENTRYWISE_MAX``) give every
+    walker the same mass matrix, forces, constraint Jacobian and accelerations at a
+    generic state: they differ only in the order of their sums. (A model with closed
+    forms, :mod:`jaxwalk.chain`, computes its accelerations from those in both runs;
+    tests/test_chain.py compares them with these derivatives.)"""
     model = get_model(name)
     params = model.default_params()
     rng = np.random.default_rng(7)
@@ -251,7 +254,7 @@ def test_entrywise_and_stacked_dynamics_agree(name, monkeypatch):
 
     def terms():
         mass, forces = mechanics.mass_matrix_and_forces(pts, model.masses(params), model.gravity(params), q, qd)
-        sigma, psi = model.constraint_terms(q, qd, params, ctx)
+        sigma, psi = Walker.constraint_terms(model, q, qd, params, ctx)
         qdd, lam = model.dynamics(y, params, jnp.asarray(0, jnp.int32), ctx)
         return mass, mechanics.mass_matrix(pts, model.masses(params), q), forces, sigma, psi, qdd, lam
 

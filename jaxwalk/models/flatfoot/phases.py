@@ -167,8 +167,7 @@ def constraint_terms(q, qd, params, ctx):
     the ankles are chain points). Equal to their automatic derivatives to
     rounding (tests/test_chain.py); a vector-field call runs 52 XLA kernels with
     them, 58 with the automatic ones (benchmarks/README.md, "Closed-form chain
-    dynamics")."""
-    a_h, a_t = geo.foot_arms(params)
+    dynamics", which counts each piece)."""
     toe_1, toe_2, heel_2, _ = anchors(params, ctx)
     zero = jnp.zeros_like(params["l_t"])
     leg_1 = jnp.stack([params["l_t"], params["l_s"], zero, zero])
@@ -178,6 +177,7 @@ def constraint_terms(q, qd, params, ctx):
     _, toe_2_row, toe_2_psi = chain.distance_terms(ankle_2 - toe_2, v_2, jac_2, conv_2)
     _, heel_2_row, heel_2_psi = chain.distance_terms(ankle_2 - heel_2, v_2, jac_2, conv_2)
     _, toe_1_row, toe_1_psi = chain.distance_terms(ankle_1 - toe_1, v_1, jac_1, conv_1)
+    # Rows in the order of :func:`constraints` (ANKLE_1_X ... TOE_1).
     knees = jnp.asarray([[0.0, 0.0, 1.0, -1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0, 1.0, -1.0]], q.dtype)
     sigma = jnp.concatenate([jac_1, knees, jnp.stack([toe_2_row, heel_2_row]), jac_2, toe_1_row[None]])
     psi = jnp.concatenate([conv_1, jnp.zeros(2, q.dtype), jnp.stack([toe_2_psi, heel_2_psi]), conv_2, toe_1_psi[None]])
