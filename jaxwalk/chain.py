@@ -84,7 +84,7 @@ def mass_matrix_and_forces(
     return _assemble(total, first, second, a), jnp.concatenate([hip, segments])
 
 
-def point_terms(weights: Float[Array, "n"], q: Float[Array, "2+n"], qd: Float[Array, "2+n"]) -> tuple[Array, Array, Array]:
+def point_terms(weights: Float[Array, "n"], q: Float[Array, "2+n"], qd: Float[Array, "2+n"]) -> tuple[Array, Array, Array, Array]:
     """Of one chain point ``hip + sum_k s_k e(a_k)`` (``weights`` = ``s``, lengths):
     its position ``(2,)``, velocity ``(2,)``, Jacobian ``(2, n_q)`` and convective
     acceleration ``-sum_k s_k e(a_k) a_k'^2`` ``(2,)`` (its acceleration at ``qdd = 0``)."""
